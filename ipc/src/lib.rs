@@ -1,0 +1,1 @@
+//! Inter-process messages and the planner/tracker processes (issue 4).

@@ -1,0 +1,2 @@
+//! `trajopt`: command-line front end of the planner.
+fn main() {}

@@ -1,0 +1,1 @@
+//! Configuration files (vehicle, scenarios, solver settings): serde types and validation.

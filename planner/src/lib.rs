@@ -1,0 +1,14 @@
+//! Math core of the reference-free minimum-time trajectory planner.
+//!
+//! Data flows one way: [`config`] (files) → [`track`] (road ahead) → [`ocp`] (the NLP of
+//! paper eq. 3) → [`ip`] (interior-point solver) → trajectory. [`model`] holds the
+//! single-track vehicle model of paper eq. (1); [`guess`] the equilibrium initial guess
+//! of paper Sec. V.
+#![deny(missing_docs)]
+
+pub mod config;
+pub mod guess;
+pub mod ip;
+pub mod model;
+pub mod ocp;
+pub mod track;

@@ -1,0 +1,70 @@
+//! Vehicle parameters of the single-track model (paper eq. 1), in SI units.
+
+/// Validated parameters of the single-track vehicle model, tires and actuator limits.
+///
+/// Built by [`crate::config`] from `config/vehicles/*.toml`; every field is finite and in
+/// range once constructed there. Field names follow the vehicle file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VehicleParams {
+    /// Vehicle mass m [kg].
+    pub m: f64,
+    /// Wheelbase L [m].
+    pub l: f64,
+    /// CG to front axle a [m].
+    pub a: f64,
+    /// CG to rear axle b [m].
+    pub b: f64,
+    /// CG height h_cg [m].
+    pub h_cg: f64,
+    /// Yaw inertia I_z [kg m^2].
+    pub i_z: f64,
+    /// Gravity g [m/s^2].
+    pub g: f64,
+    /// Effective wheel radius R_w [m] (both axles).
+    pub r_w: f64,
+    /// Lumped rear wheel inertia I_w [kg m^2].
+    pub i_w: f64,
+    /// Front axle cornering stiffness C_f [N/rad].
+    pub c_f: f64,
+    /// Rear axle slip stiffness C_r [N/rad].
+    pub c_r: f64,
+    /// Tire-road friction coefficient mu [-].
+    pub mu: f64,
+    /// Load transfer rate constant c_L [1/s].
+    pub c_l: f64,
+    /// Steering limit |delta| <= delta_max [rad].
+    pub delta_max: f64,
+    /// Upper bound of the combined rear torque T_comb [N m].
+    pub t_comb_max: f64,
+    /// Lower bound of the combined rear torque T_comb [N m] (negative: braking).
+    pub t_comb_min: f64,
+    /// Lower bound of the front brake torque T_bf [N m] (negative).
+    pub t_bf_min: f64,
+    /// Upper bound of the front brake torque T_bf [N m] (zero: brake only).
+    pub t_bf_max: f64,
+    /// Lower bound of the rear wheel speed V_wr [m/s] (R10).
+    pub v_wr_min: f64,
+    /// Steering rate bound [rad/s].
+    pub delta_rate_max: f64,
+    /// T_comb slew bound [N m/s].
+    pub t_comb_rate_max: f64,
+    /// T_bf slew bound [N m/s].
+    pub t_bf_rate_max: f64,
+    /// Slip smoothing epsilon (R6), tan-slip units.
+    pub eps_sigma: f64,
+    /// Tire saturation constraint epsilon (R5).
+    pub eps_sat: f64,
+    /// Floor of the de-rated front capacity as a fraction of mu F_zf,nom (R7).
+    pub fmax_floor_frac: f64,
+}
+
+impl VehicleParams {
+    /// Static front axle load F_z,nom,f = m g b / L [N].
+    pub fn fz_nom_front(&self) -> f64 {
+        self.m * self.g * self.b / self.l
+    }
+    /// Static rear axle load F_z,nom,r = m g a / L [N].
+    pub fn fz_nom_rear(&self) -> f64 {
+        self.m * self.g * self.a / self.l
+    }
+}

@@ -1,0 +1,1 @@
+//! MCAP recording and replay (issue 5).

@@ -5,6 +5,8 @@
 //! single-track vehicle model of paper eq. (1); [`guess`] the equilibrium initial guess
 //! of paper Sec. V.
 #![deny(missing_docs)]
+// Numerical kernels index several parallel arrays at once; iterators would obscure them.
+#![allow(clippy::needless_range_loop)]
 
 pub mod config;
 pub mod guess;

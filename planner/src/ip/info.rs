@@ -1,0 +1,130 @@
+//! What a solve reports: status, the final errors, per-phase timings and an iteration log.
+
+use serde::Serialize;
+
+/// How a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Converged to the requested tolerances.
+    Optimal,
+    /// A cap was hit but the best iterate meets the acceptable tolerances.
+    Acceptable,
+    /// Iteration cap hit; the best iterate is returned.
+    IterationLimit,
+    /// Wall-clock cap hit; the best iterate is returned.
+    TimeLimit,
+    /// Converged to a stationary point of the constraint violation that is infeasible.
+    LocallyInfeasible,
+    /// Could not make progress (factorization or line search failed repeatedly).
+    NumericalFailure,
+    /// The problem data or starting point is unusable (NaN, inconsistent bounds).
+    InvalidInput,
+}
+
+impl Status {
+    /// The snake_case name used in JSON and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Optimal => "optimal",
+            Status::Acceptable => "acceptable",
+            Status::IterationLimit => "iteration_limit",
+            Status::TimeLimit => "time_limit",
+            Status::LocallyInfeasible => "locally_infeasible",
+            Status::NumericalFailure => "numerical_failure",
+            Status::InvalidInput => "invalid_input",
+        }
+    }
+
+    /// True for `optimal` and `acceptable`.
+    pub fn is_success(self) -> bool {
+        matches!(self, Status::Optimal | Status::Acceptable)
+    }
+}
+
+/// Which direction an iteration took.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StepKind {
+    /// Newton step on the barrier problem with the current mu.
+    Newton,
+    /// Mehrotra predictor-corrector step.
+    Corrected,
+    /// Step with a second-order correction of the constraints.
+    SecondOrder,
+    /// The line search failed; the iterate was kept and regularization raised.
+    Rejected,
+    /// Feasibility restoration (Gauss-Newton on the constraint violation).
+    Restoration,
+}
+
+/// One row of the iteration log.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct IterLog {
+    /// Iteration number.
+    pub iter: usize,
+    /// Objective.
+    pub objective: f64,
+    /// Max constraint violation.
+    pub inf_pr: f64,
+    /// Scaled dual infeasibility.
+    pub inf_du: f64,
+    /// Scaled complementarity.
+    pub compl: f64,
+    /// Barrier parameter used for the step.
+    pub mu: f64,
+    /// Primal step length taken.
+    pub alpha: f64,
+    /// Primal regularization delta_w (0 when the inertia was right).
+    pub delta_w: f64,
+    /// Factorizations this iteration.
+    pub factorizations: usize,
+    /// Backtracking steps this iteration.
+    pub backtracks: usize,
+    /// Kind of step.
+    pub step: StepKind,
+}
+
+/// Wall-clock time per phase of the solve, in seconds.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct PhaseTimes {
+    /// Function, gradient, Jacobian and Hessian evaluations (including line-search trials).
+    pub evaluation: f64,
+    /// KKT factorizations.
+    pub factorization: f64,
+    /// KKT solves (back-substitutions).
+    pub solve: f64,
+    /// Line search (excluding its function evaluations).
+    pub line_search: f64,
+    /// Everything.
+    pub total: f64,
+}
+
+/// Summary of a solve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SolveInfo {
+    /// How it ended.
+    pub status: Status,
+    /// Iterations taken.
+    pub iterations: usize,
+    /// Objective at the returned point.
+    pub objective: f64,
+    /// Max constraint violation (bounds and constraints) at the returned point.
+    pub max_violation: f64,
+    /// Max constraint violation at the starting point (before the bound push).
+    pub initial_violation: f64,
+    /// Scaled dual infeasibility at the returned point.
+    pub dual_inf: f64,
+    /// Scaled complementarity at the returned point.
+    pub compl: f64,
+    /// Final barrier parameter.
+    pub mu: f64,
+    /// Total KKT factorizations.
+    pub factorizations: usize,
+    /// Largest number of factorizations in one iteration.
+    pub max_factorizations_per_iter: usize,
+    /// Function evaluations (f and g).
+    pub evaluations: usize,
+    /// Time per phase.
+    pub times: PhaseTimes,
+}

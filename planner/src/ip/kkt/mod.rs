@@ -1,0 +1,62 @@
+//! Linear algebra of the Newton step: the condensed primal-dual (KKT) system behind one
+//! trait, so a structure-exploiting backend can replace the general sparse one.
+//!
+//! The system solved every iteration is (paper eq. 6 after eliminating bound multipliers
+//! and inequality slacks)
+//!
+//! ```text
+//! [ H + D_x   J^T ] [dx]   [r_x]
+//! [ J         D_c ] [dy] = [r_c]
+//! ```
+//!
+//! with `H` the Hessian of the Lagrangian (lower triangle, coordinate form), `J` the
+//! constraint Jacobian, `D_x` a positive primal diagonal (barrier terms + regularization)
+//! and `D_c` a non-positive dual diagonal.
+
+pub mod sparse_ldlt;
+
+pub use sparse_ldlt::SparseLdlt;
+
+/// Numerical values of one KKT system; the sparsity structure was given at setup.
+#[derive(Debug, Clone, Copy)]
+pub struct KktValues<'a> {
+    /// Hessian values in the NLP's `hess_structure` order.
+    pub hess: &'a [f64],
+    /// Jacobian values in the NLP's `jac_structure` order.
+    pub jac: &'a [f64],
+    /// Primal diagonal D_x (length n).
+    pub primal_diag: &'a [f64],
+    /// Dual diagonal D_c (length m), <= 0.
+    pub dual_diag: &'a [f64],
+}
+
+/// Inertia of a factorized symmetric matrix: counts of positive, negative and zero pivots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Inertia {
+    /// Number of positive eigenvalues.
+    pub positive: usize,
+    /// Number of negative eigenvalues.
+    pub negative: usize,
+    /// Number of zero (or non-finite) pivots.
+    pub zero: usize,
+}
+
+/// Why a KKT factorization failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum KktError {
+    /// A pivot was exactly zero or not finite: the matrix is singular (to working precision).
+    #[error("singular KKT matrix (zero pivot)")]
+    Singular,
+    /// The matrix contains a NaN or infinite value.
+    #[error("non-finite value in the KKT matrix")]
+    NonFinite,
+}
+
+/// A factorization backend for the condensed KKT system.
+pub trait KktSolver {
+    /// Factorizes the system with these values and returns its inertia. Must not allocate.
+    fn factorize(&mut self, values: &KktValues<'_>) -> Result<Inertia, KktError>;
+    /// Solves with the last factorization: `rhs_x` (length n) and `rhs_y` (length m) are
+    /// overwritten by `dx` and `dy`. Must not allocate.
+    fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]);
+}

@@ -1,0 +1,135 @@
+//! Optimality measures of the primal-dual iterate (IPOPT's scaled KKT error).
+
+use super::workspace::Workspace;
+
+/// Scaled KKT errors of one iterate.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Errors {
+    /// Max |c| (constraint violation of g(x) - s).
+    pub inf_pr: f64,
+    /// Max |grad L| (unscaled).
+    pub inf_du: f64,
+    /// Max complementarity |slack * z| (unscaled, mu = 0).
+    pub compl: f64,
+    /// Max complementarity deviation from mu (unscaled).
+    pub compl_mu: f64,
+    /// Dual scaling s_d.
+    pub s_d: f64,
+    /// Complementarity scaling s_c.
+    pub s_c: f64,
+    /// Average complementarity product.
+    pub mu_avg: f64,
+}
+
+impl Errors {
+    /// Overall scaled error with mu = 0.
+    pub fn overall(&self) -> f64 {
+        (self.inf_du / self.s_d)
+            .max(self.inf_pr)
+            .max(self.compl / self.s_c)
+    }
+    /// Overall scaled error of the barrier subproblem.
+    pub fn overall_mu(&self) -> f64 {
+        (self.inf_du / self.s_d)
+            .max(self.inf_pr)
+            .max(self.compl_mu / self.s_c)
+    }
+}
+
+/// y += J^T v over the x part (`out` has length n).
+pub fn jac_t_mul(ws_rows: &[usize], ws_cols: &[usize], jac: &[f64], v: &[f64], out: &mut [f64]) {
+    for ((&r, &c), &a) in ws_rows.iter().zip(ws_cols).zip(jac) {
+        out[c] += a * v[r];
+    }
+}
+
+/// out += J v (`out` has length m).
+pub fn jac_mul(ws_rows: &[usize], ws_cols: &[usize], jac: &[f64], v: &[f64], out: &mut [f64]) {
+    for ((&r, &c), &a) in ws_rows.iter().zip(ws_cols).zip(jac) {
+        out[r] += a * v[c];
+    }
+}
+
+/// out += H v for a symmetric H stored as its lower triangle.
+pub fn hess_mul(rows: &[usize], cols: &[usize], hess: &[f64], v: &[f64], out: &mut [f64]) {
+    for ((&r, &c), &h) in rows.iter().zip(cols).zip(hess) {
+        out[r] += h * v[c];
+        if r != c {
+            out[c] += h * v[r];
+        }
+    }
+}
+
+/// Computes c = g - s (equalities: g - g_l) into `c`.
+pub fn constraint_residual(
+    ws_is_eq: &[bool],
+    g_l: &[f64],
+    n: usize,
+    g: &[f64],
+    w: &[f64],
+    c: &mut [f64],
+) {
+    for i in 0..g.len() {
+        c[i] = if ws_is_eq[i] {
+            g[i] - g_l[i]
+        } else {
+            g[i] - w[n + i]
+        };
+    }
+}
+
+/// Dual residual grad L over w into `ws.tmp_w`; returns the KKT errors at mu.
+pub fn compute_errors(ws: &mut Workspace, mu: f64) -> Errors {
+    let n = ws.n;
+    let m = ws.m;
+    let r = &mut ws.tmp_w;
+    r[..n].copy_from_slice(&ws.grad);
+    r[n..].iter_mut().for_each(|v| *v = 0.0);
+    jac_t_mul(&ws.jac_rows, &ws.jac_cols, &ws.jac, &ws.y, &mut r[..n]);
+    for i in 0..m {
+        if !ws.is_eq[i] {
+            r[n + i] = -ws.y[i];
+        }
+    }
+    let mut inf_du: f64 = 0.0;
+    let mut compl: f64 = 0.0;
+    let mut compl_mu: f64 = 0.0;
+    let mut z_sum = 0.0;
+    let mut compl_sum = 0.0;
+    for j in 0..n + m {
+        let mut rj = r[j];
+        if ws.has_lo[j] {
+            rj -= ws.zl[j];
+            let p = (ws.w[j] - ws.lo[j]) * ws.zl[j];
+            compl = compl.max(p.abs());
+            compl_mu = compl_mu.max((p - mu).abs());
+            z_sum += ws.zl[j].abs();
+            compl_sum += p;
+        }
+        if ws.has_hi[j] {
+            rj += ws.zu[j];
+            let p = (ws.hi[j] - ws.w[j]) * ws.zu[j];
+            compl = compl.max(p.abs());
+            compl_mu = compl_mu.max((p - mu).abs());
+            z_sum += ws.zu[j].abs();
+            compl_sum += p;
+        }
+        r[j] = rj;
+        inf_du = inf_du.max(rj.abs());
+    }
+    let inf_pr = ws.c.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
+    let s_max = 100.0;
+    let y_sum: f64 = ws.y.iter().map(|v| v.abs()).sum();
+    let nc = ws.n_compl.max(1) as f64;
+    let s_d = ((y_sum + z_sum) / (m as f64 + nc)).max(s_max) / s_max;
+    let s_c = (z_sum / nc).max(s_max) / s_max;
+    Errors {
+        inf_pr,
+        inf_du,
+        compl,
+        compl_mu,
+        s_d,
+        s_c,
+        mu_avg: if ws.n_compl > 0 { compl_sum / nc } else { 0.0 },
+    }
+}

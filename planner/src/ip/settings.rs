@@ -1,0 +1,235 @@
+//! Solver settings: tolerances, caps on every loop, and the barrier rule. Loaded from
+//! `config/solver.toml` (all keys optional; unknown keys are rejected).
+
+use serde::Deserialize;
+
+/// Barrier parameter update rule (paper Sec. VI-C, Table IV).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum BarrierRule {
+    /// Fiacco-McCormick: fixed mu until the barrier subproblem is solved, then decrease
+    /// (Waechter & Biegler 2006, Sec. 2.1).
+    Monotone,
+    /// Mehrotra predictor-corrector without safeguards (Nocedal, Waechter, Waltz 2009).
+    Fullmpc,
+    /// Mehrotra predictor-corrector whose corrector is only taken when it does not shorten
+    /// the step (KNITRO's "dampmpc"; Byrd, Nocedal, Waltz 2006).
+    #[default]
+    Dampmpc,
+    /// LOQO rule: mu from the spread of the complementarity products (Vanderbei-Shanno).
+    Loqo,
+}
+
+impl BarrierRule {
+    /// Name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BarrierRule::Monotone => "monotone",
+            BarrierRule::Fullmpc => "fullmpc",
+            BarrierRule::Dampmpc => "dampmpc",
+            BarrierRule::Loqo => "loqo",
+        }
+    }
+
+    /// Parses a rule name (`monotone`, `fullmpc`, `dampmpc`, `loqo`).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "monotone" => Some(BarrierRule::Monotone),
+            "fullmpc" => Some(BarrierRule::Fullmpc),
+            "dampmpc" => Some(BarrierRule::Dampmpc),
+            "loqo" => Some(BarrierRule::Loqo),
+            _ => None,
+        }
+    }
+
+    /// All implemented rules.
+    pub const ALL: [BarrierRule; 4] = [
+        BarrierRule::Dampmpc,
+        BarrierRule::Fullmpc,
+        BarrierRule::Loqo,
+        BarrierRule::Monotone,
+    ];
+}
+
+/// Tolerances, caps and algorithm choices of the interior-point solver.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Settings {
+    /// Overall (scaled) KKT tolerance for `optimal`.
+    pub tol: f64,
+    /// Max constraint violation for `optimal` (NLP units).
+    pub constr_viol_tol: f64,
+    /// Unscaled dual infeasibility for `optimal`.
+    pub dual_inf_tol: f64,
+    /// Unscaled complementarity for `optimal`.
+    pub compl_inf_tol: f64,
+    /// Overall tolerance for `acceptable` (used when a cap is hit).
+    pub acceptable_tol: f64,
+    /// Constraint violation for `acceptable`.
+    pub acceptable_constr_viol_tol: f64,
+    /// Cap on iterations.
+    pub max_iter: usize,
+    /// Wall-clock cap in seconds (checked once per iteration).
+    pub max_time_s: f64,
+    /// Cap on backtracking steps per line search.
+    pub max_backtracks: usize,
+    /// Cap on factorizations per iteration while correcting inertia.
+    pub max_inertia_corrections: usize,
+    /// Cap on consecutive failed line searches before giving up.
+    pub max_ls_failures: usize,
+    /// Cap on feasibility-restoration iterations per solve.
+    pub max_restoration_steps: usize,
+    /// Barrier update rule.
+    pub barrier: BarrierRule,
+    /// Initial barrier parameter (monotone rule).
+    pub mu_init: f64,
+    /// Smallest barrier parameter.
+    pub mu_min: f64,
+    /// Relative push of the starting point into the bounds.
+    pub bound_push: f64,
+    /// Relative push of the starting point into the bounds, as a fraction of the interval.
+    pub bound_frac: f64,
+    /// Relative relaxation of the bounds (IPOPT's bound_relax_factor).
+    pub bound_relax: f64,
+    /// Smallest fraction-to-the-boundary parameter tau.
+    pub tau_min: f64,
+    /// Armijo constant of the merit line search.
+    pub armijo: f64,
+    /// Try a second-order correction when the full step is rejected.
+    pub second_order_correction: bool,
+    /// Initial penalty parameter nu of the merit function (paper eq. 5).
+    pub penalty_init: f64,
+    /// First primal regularization tried when the inertia is wrong.
+    pub delta_w_init: f64,
+    /// Largest primal regularization before the iteration is declared failed.
+    pub delta_w_max: f64,
+    /// Dual regularization always present (keeps redundant constraints factorizable).
+    pub delta_c_min: f64,
+    /// Relative threshold on the infeasibility-stationarity measure for `locally_infeasible`.
+    pub infeas_stat_tol: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            tol: 1e-6,
+            constr_viol_tol: 1e-6,
+            dual_inf_tol: 1.0,
+            compl_inf_tol: 1e-4,
+            acceptable_tol: 1e-4,
+            acceptable_constr_viol_tol: 1e-4,
+            max_iter: 500,
+            max_time_s: 10.0,
+            max_backtracks: 30,
+            max_inertia_corrections: 12,
+            max_ls_failures: 6,
+            max_restoration_steps: 200,
+            barrier: BarrierRule::Dampmpc,
+            mu_init: 0.1,
+            mu_min: 1e-11,
+            bound_push: 1e-2,
+            bound_frac: 1e-2,
+            bound_relax: 1e-8,
+            tau_min: 0.99,
+            armijo: 1e-4,
+            second_order_correction: true,
+            penalty_init: 1.0,
+            delta_w_init: 1e-4,
+            delta_w_max: 1e20,
+            delta_c_min: 1e-10,
+            infeas_stat_tol: 1e-6,
+        }
+    }
+}
+
+/// A setting outside its valid range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("solver setting `{field}` = {value}: {expected}")]
+pub struct SettingsError {
+    /// Name of the offending key.
+    pub field: &'static str,
+    /// Its value, printed.
+    pub value: String,
+    /// What was expected.
+    pub expected: &'static str,
+}
+
+impl Settings {
+    /// Checks every value is finite and in range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let pos = [
+            ("tol", self.tol),
+            ("constr_viol_tol", self.constr_viol_tol),
+            ("dual_inf_tol", self.dual_inf_tol),
+            ("compl_inf_tol", self.compl_inf_tol),
+            ("acceptable_tol", self.acceptable_tol),
+            (
+                "acceptable_constr_viol_tol",
+                self.acceptable_constr_viol_tol,
+            ),
+            ("max_time_s", self.max_time_s),
+            ("mu_init", self.mu_init),
+            ("mu_min", self.mu_min),
+            ("bound_push", self.bound_push),
+            ("bound_frac", self.bound_frac),
+            ("penalty_init", self.penalty_init),
+            ("delta_w_init", self.delta_w_init),
+            ("delta_w_max", self.delta_w_max),
+            ("infeas_stat_tol", self.infeas_stat_tol),
+        ];
+        for (field, v) in pos {
+            if v.is_nan() || v <= 0.0 || (v.is_infinite() && field != "max_time_s") {
+                return Err(SettingsError {
+                    field,
+                    value: v.to_string(),
+                    expected: "must be a positive finite number",
+                });
+            }
+        }
+        let unit = [
+            ("tau_min", self.tau_min),
+            ("armijo", self.armijo),
+            ("bound_frac", self.bound_frac.min(0.49)),
+        ];
+        for (field, v) in unit {
+            if !(v > 0.0 && v < 1.0) {
+                return Err(SettingsError {
+                    field,
+                    value: v.to_string(),
+                    expected: "must lie in (0, 1)",
+                });
+            }
+        }
+        if !(self.bound_relax >= 0.0 && self.bound_relax < 1e-2) {
+            return Err(SettingsError {
+                field: "bound_relax",
+                value: self.bound_relax.to_string(),
+                expected: "must lie in [0, 1e-2)",
+            });
+        }
+        if !(self.delta_c_min >= 0.0 && self.delta_c_min < 1e-2) {
+            return Err(SettingsError {
+                field: "delta_c_min",
+                value: self.delta_c_min.to_string(),
+                expected: "must lie in [0, 1e-2)",
+            });
+        }
+        let caps = [
+            ("max_iter", self.max_iter),
+            ("max_backtracks", self.max_backtracks),
+            ("max_inertia_corrections", self.max_inertia_corrections),
+            ("max_ls_failures", self.max_ls_failures),
+            ("max_restoration_steps", self.max_restoration_steps),
+        ];
+        for (field, v) in caps {
+            if v == 0 || v > 1_000_000 {
+                return Err(SettingsError {
+                    field,
+                    value: v.to_string(),
+                    expected: "must be an integer in 1..=1000000",
+                });
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,1266 @@
+//! The interior-point iteration loop (paper Sec. III): barrier subproblems solved by
+//! Newton steps on the primal-dual system (eq. 6), globalized by a line search on the
+//! l2 merit function (eq. 5), with inertia correction and a barrier-update rule.
+
+use std::time::Instant;
+
+use super::barrier;
+use super::info::{IterLog, PhaseTimes, SolveInfo, Status, StepKind};
+use super::kkt::{KktError, KktSolver, KktValues, SparseLdlt};
+use super::nlp::Nlp;
+use super::residuals::{self, compute_errors, Errors};
+use super::settings::{BarrierRule, Settings};
+use super::workspace::Workspace;
+
+/// Error constructing a solver.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// Invalid settings.
+    #[error(transparent)]
+    Settings(#[from] super::settings::SettingsError),
+    /// The KKT backend could not analyse the structure.
+    #[error(transparent)]
+    Kkt(#[from] super::kkt::sparse_ldlt::SymbolicError),
+}
+
+/// Interior-point solver for one problem structure; all memory is allocated in `new`.
+#[derive(Debug)]
+pub struct Solver<K: KktSolver = SparseLdlt> {
+    settings: Settings,
+    ws: Workspace,
+    kkt: K,
+    /// Regularization of the last iteration that needed one (IPOPT's delta_w^last).
+    delta_w_last: f64,
+}
+
+/// Outcome of factorizing with inertia correction.
+struct Factorization {
+    delta_w: f64,
+    count: usize,
+}
+
+impl Solver<SparseLdlt> {
+    /// Builds a solver with the general sparse LDL^T backend.
+    pub fn new<P: Nlp + ?Sized>(nlp: &P, settings: Settings) -> Result<Self, SetupError> {
+        settings.validate()?;
+        let ws = Workspace::new(nlp, settings.max_iter + 2);
+        let kkt = SparseLdlt::new(
+            ws.n,
+            ws.m,
+            &ws.hess_rows,
+            &ws.hess_cols,
+            &ws.jac_rows,
+            &ws.jac_cols,
+        )?;
+        Ok(Self::with_backend(settings, ws, kkt))
+    }
+}
+
+impl<K: KktSolver> Solver<K> {
+    /// Builds a solver around a given backend and workspace.
+    pub fn with_backend(settings: Settings, ws: Workspace, kkt: K) -> Self {
+        Self {
+            settings,
+            ws,
+            kkt,
+            delta_w_last: 0.0,
+        }
+    }
+
+    /// Current settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Replaces the settings (caps, barrier rule) for the next solve.
+    pub fn set_settings(
+        &mut self,
+        settings: Settings,
+    ) -> Result<(), super::settings::SettingsError> {
+        settings.validate()?;
+        if settings.max_iter + 2 > self.ws.log.capacity() {
+            return Err(super::settings::SettingsError {
+                field: "max_iter",
+                value: settings.max_iter.to_string(),
+                expected: "cannot exceed the max_iter the solver was built with",
+            });
+        }
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Primal solution x of the last solve (the best iterate when it did not converge).
+    pub fn x(&self) -> &[f64] {
+        self.ws.x()
+    }
+
+    /// Constraint multipliers of the last solve.
+    pub fn y(&self) -> &[f64] {
+        &self.ws.y
+    }
+
+    /// Per-iteration log of the last solve.
+    pub fn log(&self) -> &[IterLog] {
+        &self.ws.log
+    }
+
+    /// The workspace (for diagnostics and tests).
+    pub fn workspace(&self) -> &Workspace {
+        &self.ws
+    }
+
+    /// Solves the NLP from its `initial_point`. Allocates nothing.
+    pub fn solve<P: Nlp + ?Sized>(&mut self, nlp: &mut P) -> SolveInfo {
+        let t0 = Instant::now();
+        let mut times = PhaseTimes::default();
+        let mut info = SolveInfo {
+            status: Status::InvalidInput,
+            iterations: 0,
+            objective: f64::NAN,
+            max_violation: f64::NAN,
+            initial_violation: f64::NAN,
+            dual_inf: f64::NAN,
+            compl: f64::NAN,
+            mu: f64::NAN,
+            factorizations: 0,
+            max_factorizations_per_iter: 0,
+            evaluations: 0,
+            times,
+        };
+        self.ws.log.clear();
+        self.delta_w_last = 0.0;
+        let s = self.settings;
+
+        if !self.initialize(nlp, &mut info, &mut times) {
+            info.times.total = t0.elapsed().as_secs_f64();
+            return info;
+        }
+
+        let mut mu = match s.barrier {
+            BarrierRule::Monotone => s.mu_init,
+            _ => {
+                let e = compute_errors(&mut self.ws, 0.0);
+                e.mu_avg.max(s.mu_min)
+            }
+        };
+        // IPOPT-style cap on adaptive mu: 1e3 times the initial average complementarity.
+        let mu_max = 1e3 * mu.max(s.mu_init);
+        let mut nu = s.penalty_init;
+        let mut ls_failures = 0usize;
+        let mut force_reg = false;
+        let mut best_score = (f64::INFINITY, f64::INFINITY);
+        let mut resto: Option<Restoration> = None;
+        let mut resto_steps = 0usize;
+        let mut tiny_steps = 0usize;
+        // Progress watch on ||c||: no 1 % decrease in `STALL_ITERS` iterations while
+        // infeasible also hands over to restoration.
+        const STALL_ITERS: usize = 15;
+        let mut theta_ref = f64::INFINITY;
+        let mut stalled = 0usize;
+        let mut iter = 0usize;
+        let status;
+
+        loop {
+            // Derivatives at the current point (f and g are already known).
+            let te = Instant::now();
+            let ws = &mut self.ws;
+            nlp.eval_grad_f(&ws.w[..ws.n], &mut ws.grad);
+            nlp.eval_jac_g(&ws.w[..ws.n], &mut ws.jac);
+            times.evaluation += te.elapsed().as_secs_f64();
+            if self
+                .ws
+                .grad
+                .iter()
+                .chain(&self.ws.jac)
+                .any(|v| !v.is_finite())
+            {
+                status = Status::NumericalFailure;
+                break;
+            }
+
+            let err = compute_errors(&mut self.ws, mu);
+            let score = self.score(&err);
+            if score < best_score {
+                best_score = score;
+                self.save_best();
+            }
+            info.iterations = iter;
+            if self.converged(&err) {
+                status = Status::Optimal;
+                break;
+            }
+            if iter >= s.max_iter {
+                status = Status::IterationLimit;
+                break;
+            }
+            if t0.elapsed().as_secs_f64() > s.max_time_s {
+                status = Status::TimeLimit;
+                break;
+            }
+
+            // Feasibility restoration: Gauss-Newton steps on 0.5 ||c||^2 with the barrier.
+            if let Some(r) = resto.as_mut() {
+                let theta = norm2(&self.ws.c);
+                if theta <= 0.9 * r.theta_entry || err.inf_pr <= s.constr_viol_tol {
+                    resto = None;
+                    nu = s.penalty_init;
+                    ls_failures = 0;
+                    force_reg = false;
+                } else {
+                    let stat = self.infeasibility_measure();
+                    let stationary = stat <= s.infeas_stat_tol * err.inf_pr.max(1.0);
+                    if stationary {
+                        status = Status::LocallyInfeasible;
+                        break;
+                    }
+                    if resto_steps >= s.max_restoration_steps {
+                        status = if stat <= 1e-3 * err.inf_pr.max(1.0) {
+                            Status::LocallyInfeasible
+                        } else {
+                            Status::NumericalFailure
+                        };
+                        break;
+                    }
+                    r.mu = (0.2 * r.mu).max(s.mu_min);
+                    let mu_r = r.mu;
+                    resto_steps += 1;
+                    let mut teval = 0.0;
+                    let tf = Instant::now();
+                    let step = self.restoration_step(nlp, mu_r, &mut teval, &mut info.evaluations);
+                    times.evaluation += teval;
+                    times.factorization += tf.elapsed().as_secs_f64() - teval;
+                    info.factorizations += 1;
+                    info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(1);
+                    let Some((alpha, backtracks)) = step else {
+                        status = if stat <= 1e-3 * err.inf_pr.max(1.0) {
+                            Status::LocallyInfeasible
+                        } else {
+                            Status::NumericalFailure
+                        };
+                        break;
+                    };
+                    self.push_log(
+                        iter,
+                        &err,
+                        mu_r,
+                        alpha,
+                        0.0,
+                        1,
+                        backtracks,
+                        StepKind::Restoration,
+                    );
+                    iter += 1;
+                    continue;
+                }
+            }
+            if ls_failures >= s.max_ls_failures {
+                status = Status::NumericalFailure;
+                break;
+            }
+
+            // Hessian of the Lagrangian at (x, y).
+            let te = Instant::now();
+            let ws = &mut self.ws;
+            nlp.eval_hess(&ws.w[..ws.n], 1.0, &ws.y, &mut ws.hess);
+            times.evaluation += te.elapsed().as_secs_f64();
+            if self.ws.hess.iter().any(|v| !v.is_finite()) {
+                status = Status::NumericalFailure;
+                break;
+            }
+
+            // Monotone rule: decrease mu once the barrier subproblem is solved.
+            if s.barrier == BarrierRule::Monotone {
+                let mut e = err;
+                for _ in 0..8 {
+                    if e.overall_mu() > 10.0 * mu || mu <= s.mu_min {
+                        break;
+                    }
+                    mu = barrier::monotone_next(mu, s.tol, s.mu_min);
+                    e = compute_errors(&mut self.ws, mu);
+                }
+            }
+
+            // Factorize with inertia correction.
+            let tf = Instant::now();
+            let fact = self.factorize(mu, force_reg);
+            times.factorization += tf.elapsed().as_secs_f64();
+            let fact = match fact {
+                Ok(f) => f,
+                Err(count) => {
+                    info.factorizations += count;
+                    info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(count);
+                    if err.inf_pr > s.constr_viol_tol && resto_steps < s.max_restoration_steps {
+                        resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
+                        self.push_log(
+                            iter,
+                            &err,
+                            mu,
+                            0.0,
+                            f64::INFINITY,
+                            count,
+                            0,
+                            StepKind::Rejected,
+                        );
+                        iter += 1;
+                        continue;
+                    }
+                    status = Status::NumericalFailure;
+                    break;
+                }
+            };
+            info.factorizations += fact.count;
+            info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(fact.count);
+
+            // Direction.
+            let ts = Instant::now();
+            let (mu_step, kind) = self.direction(mu, mu_max, fact.delta_w, &err);
+            times.solve += ts.elapsed().as_secs_f64();
+            if s.barrier != BarrierRule::Monotone {
+                mu = mu_step;
+            }
+
+            // Line search on the merit function.
+            let tl = Instant::now();
+            let mut teval = 0.0;
+            let outcome = self.line_search(
+                nlp,
+                mu,
+                &mut nu,
+                fact.delta_w,
+                &mut teval,
+                &mut info.evaluations,
+            );
+            times.evaluation += teval;
+            times.line_search += tl.elapsed().as_secs_f64() - teval;
+
+            let (alpha, backtracks, step_kind) = match outcome {
+                Some((alpha, bt, soc)) => {
+                    ls_failures = 0;
+                    force_reg = false;
+                    // Stalling while infeasible: hand over to restoration.
+                    tiny_steps = if alpha < 1e-4 { tiny_steps + 1 } else { 0 };
+                    let theta = norm2(&self.ws.c);
+                    if theta < 0.99 * theta_ref {
+                        theta_ref = theta;
+                        stalled = 0;
+                    } else {
+                        stalled += 1;
+                    }
+                    let infeasible = err.inf_pr > 10.0 * s.constr_viol_tol;
+                    if (tiny_steps >= 5 || stalled >= STALL_ITERS)
+                        && infeasible
+                        && resto_steps < s.max_restoration_steps
+                    {
+                        tiny_steps = 0;
+                        stalled = 0;
+                        theta_ref = f64::INFINITY;
+                        resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
+                    }
+                    (alpha, bt, if soc { StepKind::SecondOrder } else { kind })
+                }
+                None => {
+                    ls_failures += 1;
+                    force_reg = true;
+                    self.delta_w_last = (self.delta_w_last * 10.0).max(s.delta_w_init);
+                    if err.inf_pr > s.constr_viol_tol && resto_steps < s.max_restoration_steps {
+                        resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
+                    }
+                    (0.0, s.max_backtracks, StepKind::Rejected)
+                }
+            };
+            self.push_log(
+                iter,
+                &err,
+                mu,
+                alpha,
+                fact.delta_w,
+                fact.count,
+                backtracks,
+                step_kind,
+            );
+            iter += 1;
+        }
+
+        // Final report; fall back to the best iterate when not converged.
+        let mut final_status = status;
+        // A certificate of infeasibility is the current point, not the best one.
+        if !matches!(status, Status::Optimal | Status::LocallyInfeasible) {
+            self.restore_best();
+            let te = Instant::now();
+            self.reevaluate(nlp, &mut info.evaluations);
+            times.evaluation += te.elapsed().as_secs_f64();
+            let err = compute_errors(&mut self.ws, 0.0);
+            if matches!(
+                status,
+                Status::IterationLimit | Status::TimeLimit | Status::NumericalFailure
+            ) && err.overall() <= s.acceptable_tol
+                && err.inf_pr <= s.acceptable_constr_viol_tol
+            {
+                final_status = Status::Acceptable;
+            }
+        }
+        let err = compute_errors(&mut self.ws, 0.0);
+        info.status = final_status;
+        info.iterations = iter;
+        info.objective = self.ws.f;
+        info.max_violation = self.max_violation();
+        info.dual_inf = err.inf_du / err.s_d;
+        info.compl = err.compl / err.s_c;
+        info.mu = mu;
+        times.total = t0.elapsed().as_secs_f64();
+        info.times = times;
+        info
+    }
+
+    /// Sets bounds, the starting point and multipliers; false when the input is unusable.
+    fn initialize<P: Nlp + ?Sized>(
+        &mut self,
+        nlp: &mut P,
+        info: &mut SolveInfo,
+        times: &mut PhaseTimes,
+    ) -> bool {
+        let s = self.settings;
+        let ws = &mut self.ws;
+        let (n, m) = (ws.n, ws.m);
+        // Variable bounds into lo/hi[..n]; constraint bounds into g_l/g_u.
+        {
+            let (lo_x, _) = ws.lo.split_at_mut(n);
+            let (hi_x, _) = ws.hi.split_at_mut(n);
+            nlp.bounds(lo_x, hi_x, &mut ws.g_l, &mut ws.g_u);
+        }
+        for i in 0..m {
+            let (l, u) = (ws.g_l[i], ws.g_u[i]);
+            if l.is_nan() || u.is_nan() || l > u {
+                info.status = Status::InvalidInput;
+                return false;
+            }
+            ws.is_eq[i] = l == u;
+            ws.lo[n + i] = if ws.is_eq[i] { f64::NEG_INFINITY } else { l };
+            ws.hi[n + i] = if ws.is_eq[i] { f64::INFINITY } else { u };
+        }
+        ws.n_compl = 0;
+        for j in 0..n + m {
+            let (l, u) = (ws.lo[j], ws.hi[j]);
+            if l.is_nan() || u.is_nan() || l > u || l == f64::INFINITY || u == f64::NEG_INFINITY {
+                info.status = Status::InvalidInput;
+                return false;
+            }
+            ws.lo_orig[j] = l;
+            ws.hi_orig[j] = u;
+            ws.has_lo[j] = l.is_finite();
+            ws.has_hi[j] = u.is_finite();
+            if ws.has_lo[j] {
+                ws.lo[j] = l - s.bound_relax * l.abs().max(1.0);
+                ws.n_compl += 1;
+            }
+            if ws.has_hi[j] {
+                ws.hi[j] = u + s.bound_relax * u.abs().max(1.0);
+                ws.n_compl += 1;
+            }
+        }
+
+        // Starting point.
+        nlp.initial_point(&mut ws.w[..n]);
+        if ws.w[..n].iter().any(|v| !v.is_finite()) {
+            info.status = Status::InvalidInput;
+            return false;
+        }
+        let te = Instant::now();
+        nlp.eval_g(&ws.w[..n], &mut ws.g);
+        times.evaluation += te.elapsed().as_secs_f64();
+        info.evaluations += 1;
+        // Initial violation of the given point.
+        let mut viol: f64 = 0.0;
+        for j in 0..n {
+            viol = viol
+                .max(ws.lo_orig[j] - ws.w[j])
+                .max(ws.w[j] - ws.hi_orig[j]);
+        }
+        for i in 0..m {
+            viol = viol.max(ws.g_l[i] - ws.g[i]).max(ws.g[i] - ws.g_u[i]);
+        }
+        info.initial_violation = viol;
+        for i in 0..m {
+            ws.w[n + i] = if ws.is_eq[i] { ws.g_l[i] } else { ws.g[i] };
+        }
+        // Push into the (relaxed) bounds.
+        for j in 0..n + m {
+            let (l, u) = (ws.lo[j], ws.hi[j]);
+            let v = ws.w[j];
+            let range = u - l;
+            let v = if ws.has_lo[j] {
+                let p = (s.bound_push * l.abs().max(1.0)).min(s.bound_frac * range);
+                v.max(l + p)
+            } else {
+                v
+            };
+            let v = if ws.has_hi[j] {
+                let p = (s.bound_push * u.abs().max(1.0)).min(s.bound_frac * range);
+                v.min(u - p)
+            } else {
+                v
+            };
+            ws.w[j] = v;
+            ws.zl[j] = if ws.has_lo[j] { 1.0 } else { 0.0 };
+            ws.zu[j] = if ws.has_hi[j] { 1.0 } else { 0.0 };
+        }
+        ws.y.iter_mut().for_each(|v| *v = 0.0);
+        let te = Instant::now();
+        ws.f = nlp.eval_f(&ws.w[..n]);
+        nlp.eval_g(&ws.w[..n], &mut ws.g);
+        times.evaluation += te.elapsed().as_secs_f64();
+        info.evaluations += 1;
+        if !ws.f.is_finite() || ws.g.iter().any(|v| !v.is_finite()) {
+            info.status = Status::InvalidInput;
+            return false;
+        }
+        residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g, &ws.w, &mut ws.c);
+        true
+    }
+
+    fn converged(&self, e: &Errors) -> bool {
+        let s = &self.settings;
+        e.overall() <= s.tol
+            && e.inf_du <= s.dual_inf_tol
+            && e.inf_pr <= s.constr_viol_tol
+            && e.compl <= s.compl_inf_tol
+    }
+
+    /// Ranking of iterates for "best so far": feasibility first, then KKT error.
+    fn score(&self, e: &Errors) -> (f64, f64) {
+        let feas = if e.inf_pr <= self.settings.acceptable_constr_viol_tol {
+            0.0
+        } else {
+            e.inf_pr
+        };
+        (feas, e.overall())
+    }
+
+    fn save_best(&mut self) {
+        let ws = &mut self.ws;
+        ws.best_w.copy_from_slice(&ws.w);
+        ws.best_y.copy_from_slice(&ws.y);
+        ws.best_zl.copy_from_slice(&ws.zl);
+        ws.best_zu.copy_from_slice(&ws.zu);
+    }
+
+    fn restore_best(&mut self) {
+        let ws = &mut self.ws;
+        ws.w.copy_from_slice(&ws.best_w);
+        ws.y.copy_from_slice(&ws.best_y);
+        ws.zl.copy_from_slice(&ws.best_zl);
+        ws.zu.copy_from_slice(&ws.best_zu);
+    }
+
+    fn reevaluate<P: Nlp + ?Sized>(&mut self, nlp: &mut P, evals: &mut usize) {
+        let ws = &mut self.ws;
+        let n = ws.n;
+        ws.f = nlp.eval_f(&ws.w[..n]);
+        nlp.eval_g(&ws.w[..n], &mut ws.g);
+        nlp.eval_grad_f(&ws.w[..n], &mut ws.grad);
+        nlp.eval_jac_g(&ws.w[..n], &mut ws.jac);
+        *evals += 1;
+        residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g, &ws.w, &mut ws.c);
+    }
+
+    /// Max violation of the original constraints and variable bounds at the current x.
+    fn max_violation(&self) -> f64 {
+        let ws = &self.ws;
+        let mut v: f64 = 0.0;
+        for j in 0..ws.n {
+            v = v.max(ws.lo_orig[j] - ws.w[j]).max(ws.w[j] - ws.hi_orig[j]);
+        }
+        for i in 0..ws.m {
+            v = v.max(ws.g_l[i] - ws.g[i]).max(ws.g[i] - ws.g_u[i]);
+        }
+        v
+    }
+
+    /// Projected gradient of 0.5 ||c||^2 over w (inf-norm): zero at a stationary point of
+    /// the constraint violation.
+    fn infeasibility_measure(&mut self) -> f64 {
+        let ws = &mut self.ws;
+        let n = ws.n;
+        let v = &mut ws.tmp_w;
+        v.iter_mut().for_each(|x| *x = 0.0);
+        residuals::jac_t_mul(&ws.jac_rows, &ws.jac_cols, &ws.jac, &ws.c, &mut v[..n]);
+        for i in 0..ws.m {
+            if !ws.is_eq[i] {
+                v[n + i] = -ws.c[i];
+            }
+        }
+        let mut r: f64 = 0.0;
+        for j in 0..n + ws.m {
+            // Projected gradient w - P(w - v): a bound blocks the descent direction -v.
+            let mut g = v[j];
+            if ws.has_lo[j] && g > 0.0 {
+                g = g.min(ws.w[j] - ws.lo[j]);
+            }
+            if ws.has_hi[j] && g < 0.0 {
+                g = g.max(-(ws.hi[j] - ws.w[j]));
+            }
+            r = r.max(g.abs());
+        }
+        r
+    }
+
+    /// Factorizes the KKT matrix, raising delta_w until the inertia is (n, m, 0).
+    fn factorize(&mut self, mu: f64, force_reg: bool) -> Result<Factorization, usize> {
+        self.factorize_with(mu, force_reg, self.settings.delta_c_min)
+    }
+
+    /// Inertia-corrected factorization with dual regularization at least `delta_c_base`.
+    fn factorize_with(
+        &mut self,
+        mu: f64,
+        force_reg: bool,
+        delta_c_base: f64,
+    ) -> Result<Factorization, usize> {
+        let s = self.settings;
+        let (n, m) = (self.ws.n, self.ws.m);
+        self.compute_sigma();
+        let mut delta_c = delta_c_base;
+        let mut delta_w = if force_reg {
+            self.delta_w_last.max(s.delta_w_init)
+        } else {
+            0.0
+        };
+        let mut count = 0;
+        while count < s.max_inertia_corrections {
+            self.fill_diagonals(delta_w, delta_c);
+            count += 1;
+            let ws = &self.ws;
+            let res = self.kkt.factorize(&KktValues {
+                hess: &ws.hess,
+                jac: &ws.jac,
+                primal_diag: &ws.primal_diag,
+                dual_diag: &ws.dual_diag,
+            });
+            match res {
+                Ok(inertia) if inertia.positive == n && inertia.negative == m => {
+                    if delta_w > 0.0 {
+                        self.delta_w_last = delta_w;
+                    }
+                    return Ok(Factorization { delta_w, count });
+                }
+                Ok(_) => {}
+                Err(KktError::Singular) => {
+                    delta_c = delta_c.max(1e-8 * mu.max(1e-12).powf(0.25));
+                }
+                Err(KktError::NonFinite) => return Err(count),
+            }
+            delta_w = if delta_w == 0.0 {
+                if self.delta_w_last == 0.0 {
+                    s.delta_w_init
+                } else {
+                    (self.delta_w_last / 3.0).max(1e-20)
+                }
+            } else if self.delta_w_last == 0.0 {
+                delta_w * 100.0
+            } else {
+                delta_w * 8.0
+            };
+            if delta_w > s.delta_w_max {
+                return Err(count);
+            }
+        }
+        Err(count)
+    }
+
+    /// Barrier Hessian Sigma = z_l/(w - l) + z_u/(u - w).
+    fn compute_sigma(&mut self) {
+        let ws = &mut self.ws;
+        for j in 0..ws.n + ws.m {
+            let mut sg = 0.0;
+            if ws.has_lo[j] {
+                sg += ws.zl[j] / (ws.w[j] - ws.lo[j]);
+            }
+            if ws.has_hi[j] {
+                sg += ws.zu[j] / (ws.hi[j] - ws.w[j]);
+            }
+            ws.sigma[j] = sg;
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn push_log(
+        &mut self,
+        iter: usize,
+        err: &Errors,
+        mu: f64,
+        alpha: f64,
+        delta_w: f64,
+        factorizations: usize,
+        backtracks: usize,
+        step: StepKind,
+    ) {
+        if self.ws.log.len() < self.ws.log.capacity() {
+            self.ws.log.push(IterLog {
+                iter,
+                objective: self.ws.f,
+                inf_pr: err.inf_pr,
+                inf_du: err.inf_du / err.s_d,
+                compl: err.compl / err.s_c,
+                mu,
+                alpha,
+                delta_w,
+                factorizations,
+                backtracks,
+                step,
+            });
+        }
+    }
+
+    /// One feasibility-restoration iteration: a regularized Gauss-Newton step on
+    /// 0.5 ||c||^2 - mu_r sum ln(slacks), i.e. the KKT system with H = 0 and D_c = -I,
+    /// globalized by an Armijo search. Multipliers y are left alone.
+    fn restoration_step<P: Nlp + ?Sized>(
+        &mut self,
+        nlp: &mut P,
+        mu_r: f64,
+        teval: &mut f64,
+        evals: &mut usize,
+    ) -> Option<(f64, usize)> {
+        let s = self.settings;
+        let (n, m) = (self.ws.n, self.ws.m);
+        // Exact Hessian of 0.5 ||c||^2 beyond J^T J: sum_i c_i grad^2 g_i.
+        let te = Instant::now();
+        {
+            let ws = &mut self.ws;
+            nlp.eval_hess(&ws.w[..n], 0.0, &ws.c, &mut ws.hess);
+        }
+        *teval += te.elapsed().as_secs_f64();
+        if self.ws.hess.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let theta = norm2(&self.ws.c);
+        let delta = match self.factorize_with(mu_r, false, 1.0) {
+            Ok(f) => f.delta_w,
+            Err(_) => return None,
+        };
+        self.set_targets(mu_r, false);
+        self.solve_direction_mode(delta, false, true);
+        let tau = (1.0 - mu_r).max(s.tau_min);
+        let (alpha_max, alpha_z) = self.max_steps(tau);
+        // Directional derivative of the restoration merit.
+        let (phi0, dd) = {
+            let ws = &mut self.ws;
+            ws.tmp_m.iter_mut().for_each(|v| *v = 0.0);
+            residuals::jac_mul(
+                &ws.jac_rows,
+                &ws.jac_cols,
+                &ws.jac,
+                &ws.dw[..n],
+                &mut ws.tmp_m,
+            );
+            let mut dd = 0.0;
+            for i in 0..m {
+                let ad = if ws.is_eq[i] {
+                    ws.tmp_m[i]
+                } else {
+                    ws.tmp_m[i] - ws.dw[n + i]
+                };
+                dd += ws.c[i] * ad;
+            }
+            for j in 0..n + m {
+                if ws.has_lo[j] {
+                    dd -= mu_r / (ws.w[j] - ws.lo[j]) * ws.dw[j];
+                }
+                if ws.has_hi[j] {
+                    dd += mu_r / (ws.hi[j] - ws.w[j]) * ws.dw[j];
+                }
+            }
+            let phi0 = 0.5 * theta * theta + self.barrier_value(&self.ws.w, 0.0, mu_r);
+            (phi0, dd)
+        };
+        let mut alpha = alpha_max;
+        for bt in 0..s.max_backtracks {
+            {
+                let ws = &mut self.ws;
+                for j in 0..n + m {
+                    ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
+                }
+            }
+            let te = Instant::now();
+            let f_t = nlp.eval_f(&self.ws.w_t[..n]);
+            {
+                let ws = &mut self.ws;
+                nlp.eval_g(&ws.w_t[..n], &mut ws.g_t);
+            }
+            *teval += te.elapsed().as_secs_f64();
+            *evals += 1;
+            if f_t.is_finite() && self.ws.g_t.iter().all(|v| v.is_finite()) {
+                let ws = &mut self.ws;
+                residuals::constraint_residual(
+                    &ws.is_eq,
+                    &ws.g_l,
+                    n,
+                    &ws.g_t,
+                    &ws.w_t,
+                    &mut ws.c_t,
+                );
+                let th = norm2(&self.ws.c_t);
+                let phi = 0.5 * th * th + self.barrier_value(&self.ws.w_t, 0.0, mu_r);
+                if phi.is_finite() && phi <= phi0 + s.armijo * alpha * dd.min(0.0) {
+                    self.accept(f_t, alpha, alpha_z, mu_r, false);
+                    return Some((alpha, bt));
+                }
+            }
+            alpha *= 0.5;
+            if alpha < 1e-14 {
+                break;
+            }
+        }
+        None
+    }
+
+    fn fill_diagonals(&mut self, delta_w: f64, delta_c: f64) {
+        let ws = &mut self.ws;
+        let n = ws.n;
+        for j in 0..n {
+            ws.primal_diag[j] = ws.sigma[j] + delta_w;
+        }
+        for i in 0..ws.m {
+            ws.dual_diag[i] = if ws.is_eq[i] {
+                -delta_c
+            } else {
+                -(1.0 / (ws.sigma[n + i] + delta_w) + delta_c)
+            };
+        }
+    }
+
+    /// Computes the step (dw, dy, dzl, dzu) for the current rule; returns mu and its kind.
+    fn direction(&mut self, mu: f64, mu_max: f64, delta_w: f64, err: &Errors) -> (f64, StepKind) {
+        let s = self.settings;
+        match s.barrier {
+            BarrierRule::Monotone => {
+                self.set_targets(mu, false);
+                self.solve_direction(delta_w, None);
+                (mu, StepKind::Newton)
+            }
+            BarrierRule::Loqo => {
+                let mu_new = barrier::loqo(&self.ws, err.mu_avg).clamp(s.mu_min, mu_max);
+                self.set_targets(mu_new, false);
+                self.solve_direction(delta_w, None);
+                (mu_new, StepKind::Newton)
+            }
+            BarrierRule::Fullmpc | BarrierRule::Dampmpc => {
+                // Predictor: affine-scaling step (mu = 0).
+                self.set_targets(0.0, false);
+                self.solve_direction(delta_w, None);
+                let tau = 1.0;
+                let (ap, ad) = self.max_steps(tau);
+                let mu_aff = barrier::complementarity_after(&self.ws, ap, ad);
+                let mu_avg = err.mu_avg.max(s.mu_min);
+                let sigma = (mu_aff / mu_avg).clamp(0.0, 1.0).powi(3);
+                // Keep mu from collapsing while far from feasibility.
+                let floor = s.mu_min.max(1e-2 * err.inf_pr.min(1.0) * mu_avg);
+                let mu_new = (sigma * mu_avg).max(floor).min(mu_max);
+                {
+                    let ws = &mut self.ws;
+                    ws.dw_aff.copy_from_slice(&ws.dw);
+                    ws.dzl_aff.copy_from_slice(&ws.dzl);
+                    ws.dzu_aff.copy_from_slice(&ws.dzu);
+                }
+                if s.barrier == BarrierRule::Dampmpc {
+                    // Centering step first, then the corrector only if it is not shorter.
+                    self.set_targets(mu_new, false);
+                    self.solve_direction(delta_w, None);
+                    let tau = (1.0 - mu_new).max(s.tau_min);
+                    let (cp, cd) = self.max_steps(tau);
+                    let center_step = cp.min(cd);
+                    self.set_targets(mu_new, true);
+                    self.solve_direction(delta_w, None);
+                    let (kp, kd) = self.max_steps(tau);
+                    if kp.min(kd) >= 0.95 * center_step {
+                        (mu_new, StepKind::Corrected)
+                    } else {
+                        self.set_targets(mu_new, false);
+                        self.solve_direction(delta_w, None);
+                        (mu_new, StepKind::Newton)
+                    }
+                } else {
+                    self.set_targets(mu_new, true);
+                    self.solve_direction(delta_w, None);
+                    (mu_new, StepKind::Corrected)
+                }
+            }
+        }
+    }
+
+    /// Complementarity targets: mu, minus the Mehrotra second-order term when `corrector`.
+    fn set_targets(&mut self, mu: f64, corrector: bool) {
+        let ws = &mut self.ws;
+        for j in 0..ws.n + ws.m {
+            ws.tgt_l[j] = if ws.has_lo[j] {
+                if corrector {
+                    mu - ws.dw_aff[j] * ws.dzl_aff[j]
+                } else {
+                    mu
+                }
+            } else {
+                0.0
+            };
+            ws.tgt_u[j] = if ws.has_hi[j] {
+                if corrector {
+                    mu + ws.dw_aff[j] * ws.dzu_aff[j]
+                } else {
+                    mu
+                }
+            } else {
+                0.0
+            };
+        }
+    }
+
+    /// Solves for (dw, dy, dzl, dzu) with the current targets. `c_override` replaces the
+    /// constraint residual (second-order correction).
+    fn solve_direction(&mut self, delta_w: f64, c_override: Option<()>) {
+        self.solve_direction_mode(delta_w, c_override.is_some(), false);
+    }
+
+    /// As [`Self::solve_direction`]; `feasibility` drops the objective and multiplier terms
+    /// (restoration), `soc` uses `tmp_m` as the constraint residual.
+    fn solve_direction_mode(&mut self, delta_w: f64, soc: bool, feasibility: bool) {
+        let ws = &mut self.ws;
+        let (n, m) = (ws.n, ws.m);
+        // rhs_w = -(grad + A^T y - tgt_l/sl + tgt_u/su)
+        ws.rhs_w.iter_mut().for_each(|v| *v = 0.0);
+        if !feasibility {
+            ws.rhs_w[..n].copy_from_slice(&ws.grad);
+            residuals::jac_t_mul(
+                &ws.jac_rows,
+                &ws.jac_cols,
+                &ws.jac,
+                &ws.y,
+                &mut ws.rhs_w[..n],
+            );
+            for i in 0..m {
+                if !ws.is_eq[i] {
+                    ws.rhs_w[n + i] = -ws.y[i];
+                }
+            }
+        }
+        for j in 0..n + m {
+            let mut r = ws.rhs_w[j];
+            if ws.has_lo[j] {
+                r -= ws.tgt_l[j] / (ws.w[j] - ws.lo[j]);
+            }
+            if ws.has_hi[j] {
+                r += ws.tgt_u[j] / (ws.hi[j] - ws.w[j]);
+            }
+            ws.rhs_w[j] = -r;
+        }
+        let c = if soc { &ws.tmp_m } else { &ws.c };
+        ws.sol_x.copy_from_slice(&ws.rhs_w[..n]);
+        for i in 0..m {
+            ws.sol_y[i] = if ws.is_eq[i] {
+                -c[i]
+            } else {
+                -c[i] + ws.rhs_w[n + i] / (ws.sigma[n + i] + delta_w)
+            };
+        }
+        self.kkt.solve(&mut ws.sol_x, &mut ws.sol_y);
+        ws.dw[..n].copy_from_slice(&ws.sol_x);
+        ws.dy.copy_from_slice(&ws.sol_y);
+        for i in 0..m {
+            ws.dw[n + i] = if ws.is_eq[i] {
+                0.0
+            } else {
+                (ws.rhs_w[n + i] + ws.dy[i]) / (ws.sigma[n + i] + delta_w)
+            };
+        }
+        for j in 0..n + m {
+            ws.dzl[j] = if ws.has_lo[j] {
+                let sl = ws.w[j] - ws.lo[j];
+                (ws.tgt_l[j] - sl * ws.zl[j] - ws.zl[j] * ws.dw[j]) / sl
+            } else {
+                0.0
+            };
+            ws.dzu[j] = if ws.has_hi[j] {
+                let su = ws.hi[j] - ws.w[j];
+                (ws.tgt_u[j] - su * ws.zu[j] + ws.zu[j] * ws.dw[j]) / su
+            } else {
+                0.0
+            };
+        }
+    }
+
+    /// Largest primal and dual steps keeping a fraction tau of the distance to the bounds.
+    fn max_steps(&self, tau: f64) -> (f64, f64) {
+        let ws = &self.ws;
+        let mut ap: f64 = 1.0;
+        let mut ad: f64 = 1.0;
+        for j in 0..ws.n + ws.m {
+            let d = ws.dw[j];
+            if ws.has_lo[j] {
+                if d < 0.0 {
+                    ap = ap.min(-tau * (ws.w[j] - ws.lo[j]) / d);
+                }
+                if ws.dzl[j] < 0.0 {
+                    ad = ad.min(-tau * ws.zl[j] / ws.dzl[j]);
+                }
+            }
+            if ws.has_hi[j] {
+                if d > 0.0 {
+                    ap = ap.min(tau * (ws.hi[j] - ws.w[j]) / d);
+                }
+                if ws.dzu[j] < 0.0 {
+                    ad = ad.min(-tau * ws.zu[j] / ws.dzu[j]);
+                }
+            }
+        }
+        (ap, ad)
+    }
+
+    /// Barrier objective f - mu sum ln(slacks) at primal point `w` with objective `f`.
+    fn barrier_value(&self, w: &[f64], f: f64, mu: f64) -> f64 {
+        let ws = &self.ws;
+        let mut b = 0.0;
+        for j in 0..ws.n + ws.m {
+            if ws.has_lo[j] {
+                b += (w[j] - ws.lo[j]).ln();
+            }
+            if ws.has_hi[j] {
+                b += (ws.hi[j] - w[j]).ln();
+            }
+        }
+        f - mu * b
+    }
+
+    /// Backtracking line search on phi_nu = barrier objective + nu ||c||_2 (paper eq. 5).
+    /// Returns (alpha, backtracks, used second-order correction), or None on failure.
+    #[allow(clippy::too_many_arguments)]
+    fn line_search<P: Nlp + ?Sized>(
+        &mut self,
+        nlp: &mut P,
+        mu: f64,
+        nu: &mut f64,
+        delta_w: f64,
+        teval: &mut f64,
+        evals: &mut usize,
+    ) -> Option<(f64, usize, bool)> {
+        let s = self.settings;
+        let (n, m) = (self.ws.n, self.ws.m);
+        let tau = (1.0 - mu).max(s.tau_min);
+        let (alpha_max, alpha_z) = self.max_steps(tau);
+
+        // Model quantities: barrier gradient . d, curvature, linearized residual.
+        let (grad_d, curv, theta, theta_lin) = {
+            let ws = &mut self.ws;
+            let mut gd = 0.0;
+            for j in 0..n + m {
+                let mut gj = if j < n { ws.grad[j] } else { 0.0 };
+                if ws.has_lo[j] {
+                    gj -= mu / (ws.w[j] - ws.lo[j]);
+                }
+                if ws.has_hi[j] {
+                    gj += mu / (ws.hi[j] - ws.w[j]);
+                }
+                gd += gj * ws.dw[j];
+            }
+            ws.tmp_w.iter_mut().for_each(|v| *v = 0.0);
+            residuals::hess_mul(
+                &ws.hess_rows,
+                &ws.hess_cols,
+                &ws.hess,
+                &ws.dw[..n],
+                &mut ws.tmp_w[..n],
+            );
+            let mut curv = 0.0;
+            for j in 0..n + m {
+                curv += ws.dw[j] * (ws.tmp_w[j] + ws.sigma[j] * ws.dw[j]);
+            }
+            ws.tmp_m.copy_from_slice(&ws.c);
+            residuals::jac_mul(
+                &ws.jac_rows,
+                &ws.jac_cols,
+                &ws.jac,
+                &ws.dw[..n],
+                &mut ws.tmp_m,
+            );
+            for i in 0..m {
+                if !ws.is_eq[i] {
+                    ws.tmp_m[i] -= ws.dw[n + i];
+                }
+            }
+            let theta = norm2(&ws.c);
+            let theta_lin = norm2(&ws.tmp_m);
+            (gd, curv, theta, theta_lin)
+        };
+        let _ = delta_w;
+        // Penalty update so the step is a descent direction of the merit (Nocedal-Wright 18.36).
+        let rho = 0.1;
+        let reduction = theta - theta_lin;
+        if reduction > 1e-12 * theta.max(1.0) {
+            let nu_trial = (grad_d + 0.5 * curv.max(0.0)) / ((1.0 - rho) * reduction);
+            if nu_trial > *nu {
+                *nu = (nu_trial * 1.1).max(*nu * 1.5).min(1e12);
+            }
+        }
+        let dir_deriv = grad_d - *nu * reduction;
+        let phi0 = self.barrier_value(&self.ws.w, self.ws.f, mu) + *nu * theta;
+
+        let mut alpha = alpha_max;
+        let mut soc_tried = false;
+        for bt in 0..s.max_backtracks {
+            // Trial point.
+            {
+                let ws = &mut self.ws;
+                for j in 0..n + m {
+                    ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
+                }
+            }
+            let te = Instant::now();
+            let f_t = nlp.eval_f(&self.ws.w_t[..n]);
+            {
+                let ws = &mut self.ws;
+                nlp.eval_g(&ws.w_t[..n], &mut ws.g_t);
+            }
+            *teval += te.elapsed().as_secs_f64();
+            *evals += 1;
+            let ok_eval = f_t.is_finite() && self.ws.g_t.iter().all(|v| v.is_finite());
+            if ok_eval {
+                let ws = &mut self.ws;
+                residuals::constraint_residual(
+                    &ws.is_eq,
+                    &ws.g_l,
+                    n,
+                    &ws.g_t,
+                    &ws.w_t,
+                    &mut ws.c_t,
+                );
+                let theta_t = norm2(&self.ws.c_t);
+                let phi_t = self.barrier_value(&self.ws.w_t, f_t, mu) + *nu * theta_t;
+                if phi_t.is_finite() && phi_t <= phi0 + s.armijo * alpha * dir_deriv.min(0.0) {
+                    self.accept(f_t, alpha, alpha_z, mu, true);
+                    return Some((alpha, bt, false));
+                }
+                // Second-order correction on the first rejected full step.
+                if s.second_order_correction && bt == 0 && !soc_tried && theta_t >= theta {
+                    soc_tried = true;
+                    if let Some(a) = self.try_soc(
+                        nlp, mu, *nu, phi0, dir_deriv, alpha, delta_w, tau, teval, evals,
+                    ) {
+                        return Some((a, bt, true));
+                    }
+                }
+            }
+            alpha *= 0.5;
+            if alpha < 1e-14 {
+                break;
+            }
+        }
+        None
+    }
+
+    /// Second-order correction: re-solve with c_soc = alpha c(w) + c(w + alpha d).
+    #[allow(clippy::too_many_arguments)]
+    fn try_soc<P: Nlp + ?Sized>(
+        &mut self,
+        nlp: &mut P,
+        mu: f64,
+        nu: f64,
+        phi0: f64,
+        dir_deriv: f64,
+        alpha: f64,
+        delta_w: f64,
+        tau: f64,
+        teval: &mut f64,
+        evals: &mut usize,
+    ) -> Option<f64> {
+        let s = self.settings;
+        let (n, m) = (self.ws.n, self.ws.m);
+        {
+            let ws = &mut self.ws;
+            for i in 0..m {
+                ws.tmp_m[i] = alpha * ws.c[i] + ws.c_t[i];
+            }
+        }
+        self.solve_direction(delta_w, Some(()));
+        let (ap, az) = self.max_steps(tau);
+        {
+            let ws = &mut self.ws;
+            for j in 0..n + m {
+                ws.w_t[j] = ws.w[j] + ap * ws.dw[j];
+            }
+        }
+        let te = Instant::now();
+        let f_t = nlp.eval_f(&self.ws.w_t[..n]);
+        {
+            let ws = &mut self.ws;
+            nlp.eval_g(&ws.w_t[..n], &mut ws.g_t);
+        }
+        *teval += te.elapsed().as_secs_f64();
+        *evals += 1;
+        if !(f_t.is_finite() && self.ws.g_t.iter().all(|v| v.is_finite())) {
+            self.restore_direction(delta_w);
+            return None;
+        }
+        {
+            let ws = &mut self.ws;
+            residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g_t, &ws.w_t, &mut ws.c_t);
+        }
+        let theta_t = norm2(&self.ws.c_t);
+        let phi_t = self.barrier_value(&self.ws.w_t, f_t, mu) + nu * theta_t;
+        if phi_t.is_finite() && phi_t <= phi0 + s.armijo * ap * dir_deriv.min(0.0) {
+            self.accept(f_t, ap, az, mu, true);
+            Some(ap)
+        } else {
+            self.restore_direction(delta_w);
+            None
+        }
+    }
+
+    /// Recomputes the regular direction after a failed correction (same targets).
+    fn restore_direction(&mut self, delta_w: f64) {
+        self.solve_direction(delta_w, None);
+    }
+
+    /// Takes the step: w = w_t (already holding w + alpha dw), y += alpha dy, z += alpha_z dz.
+    fn accept(&mut self, f_t: f64, alpha: f64, alpha_z: f64, mu: f64, update_y: bool) {
+        let ws = &mut self.ws;
+        let (n, m) = (ws.n, ws.m);
+        ws.w.copy_from_slice(&ws.w_t);
+        ws.f = f_t;
+        ws.g.copy_from_slice(&ws.g_t);
+        ws.c.copy_from_slice(&ws.c_t);
+        if update_y {
+            for i in 0..m {
+                ws.y[i] += alpha * ws.dy[i];
+            }
+        }
+        let kappa_sigma = 1e10;
+        for j in 0..n + m {
+            if ws.has_lo[j] {
+                let sl = ws.w[j] - ws.lo[j];
+                let z = ws.zl[j] + alpha_z * ws.dzl[j];
+                ws.zl[j] = z.clamp(mu / (kappa_sigma * sl), kappa_sigma * mu / sl);
+            }
+            if ws.has_hi[j] {
+                let su = ws.hi[j] - ws.w[j];
+                let z = ws.zu[j] + alpha_z * ws.dzu[j];
+                ws.zu[j] = z.clamp(mu / (kappa_sigma * su), kappa_sigma * mu / su);
+            }
+        }
+    }
+}
+
+/// State of the feasibility restoration phase.
+#[derive(Debug, Clone, Copy)]
+struct Restoration {
+    /// ||c||_2 when restoration started; left once reduced by 10 %.
+    theta_entry: f64,
+    /// Barrier parameter of the restoration merit.
+    mu: f64,
+}
+
+impl Restoration {
+    fn new(theta_entry: f64, mu: f64) -> Self {
+        Self { theta_entry, mu }
+    }
+}
+
+fn norm2(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}

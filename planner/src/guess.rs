@@ -1,1 +1,264 @@
 //! Initial guesses: the equilibrium guess of paper Sec. V (eq. 8) and the zero guess.
+//!
+//! The equilibrium guess solves one box-constrained nonlinear least-squares problem for a
+//! single state/control pair whose dynamic rates vanish (straight line, k_ref = 0), with
+//! our own interior-point solver and exact derivatives. Every node of the OCP then gets
+//! that pair; e = dpsi = 0, s_k = k ds and t_k = s_k / V (paper Sec. V).
+
+use nalgebra::SVector;
+use num_dual::{hessian, Dual2SVec64, DualNum};
+
+use crate::ip::{Nlp, NlpDims, Settings, SolveInfo, Solver, Status};
+use crate::model::dynamics::time_derivatives;
+use crate::model::{iu, ix, VehicleParams, NU, NX};
+
+/// Unknowns of eq. (8): [r, V, beta, V_wr, dFz, delta, T_comb, T_bf].
+const NG: usize = 8;
+
+/// Nominal magnitudes dividing each residual of eq. (8) so they weigh alike (the zero-cost
+/// minimizers, which are what eq. 8 asks for, do not depend on them).
+const RESIDUAL_SCALE: [f64; 6] = [1.0, 1.0, 0.1, 10.0, 1000.0, 1.0];
+
+/// Which initial guess a solve starts from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GuessKind {
+    /// Constant dynamic equilibrium of paper eq. (8).
+    Equilibrium,
+    /// Every decision variable zero (the paper's ill-informed guess).
+    Zero,
+}
+
+impl GuessKind {
+    /// Name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            GuessKind::Equilibrium => "equilibrium",
+            GuessKind::Zero => "zero",
+        }
+    }
+    /// Parses `equilibrium` or `zero`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "equilibrium" => Some(GuessKind::Equilibrium),
+            "zero" => Some(GuessKind::Zero),
+            _ => None,
+        }
+    }
+}
+
+/// The constant state/control pair of the equilibrium guess.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Equilibrium {
+    /// Dynamic states and kinematic placeholders [r, V, beta, V_wr, dFz, 0, 0, 0, 0].
+    pub x: [f64; NX],
+    /// Controls [delta, T_comb, T_bf].
+    pub u: [f64; NU],
+    /// Remaining cost of eq. (8) (zero at a true equilibrium).
+    pub cost: f64,
+    /// Solver status of the least-squares problem.
+    pub status: &'static str,
+    /// Iterations taken.
+    pub iterations: usize,
+}
+
+/// Could not compute an equilibrium guess.
+#[derive(Debug, thiserror::Error)]
+pub enum GuessError {
+    /// The solver could not be set up.
+    #[error("equilibrium guess: solver setup failed: {0}")]
+    Setup(#[from] crate::ip::SetupError),
+    /// The least-squares problem did not converge to zero cost.
+    #[error("equilibrium guess did not converge: status {status}, cost {cost:e}")]
+    NotConverged {
+        /// Solver status.
+        status: &'static str,
+        /// Remaining cost.
+        cost: f64,
+    },
+}
+
+/// The NLP of paper eq. (8) for one vehicle.
+#[derive(Debug, Clone)]
+pub struct EquilibriumProblem {
+    vehicle: VehicleParams,
+    v_bounds: (f64, f64),
+    start: [f64; NG],
+}
+
+impl EquilibriumProblem {
+    /// The problem with speed bounds `v_min..v_max`, started from speed `v_start` with
+    /// 5 % rear wheel slip (as the independent reference does).
+    pub fn new(vehicle: VehicleParams, v_min: f64, v_max: f64, v_start: f64) -> Self {
+        let v0 = v_start.clamp(v_min, v_max);
+        Self {
+            vehicle,
+            v_bounds: (v_min, v_max),
+            start: [0.0, v0, 0.0, 1.05 * v0, 0.0, 0.0, 0.0, 0.0],
+        }
+    }
+
+    fn cost<D: DualNum<Primitive = f64> + Copy>(&self, z: &[D; NG]) -> D {
+        let zero = D::from(0.0);
+        let x = [z[0], z[1], z[2], z[3], z[4], zero, zero, zero, zero];
+        let u = [z[5], z[6], z[7]];
+        let d = time_derivatives(&self.vehicle, &x, &u, 0.0);
+        let res = [
+            d.dxdt[ix::R],
+            d.dxdt[ix::V],
+            d.dxdt[ix::BETA],
+            d.dxdt[ix::VWR],
+            d.dxdt[ix::DFZ],
+            x[ix::V] - x[ix::VWR],
+        ];
+        let mut c = zero;
+        for (r, s) in res.iter().zip(RESIDUAL_SCALE) {
+            let q = *r / s;
+            c += q * q;
+        }
+        c * 0.5
+    }
+
+    fn derivs(&self, x: &[f64]) -> (f64, SVector<f64, NG>, nalgebra::SMatrix<f64, NG, NG>) {
+        let z = SVector::<f64, NG>::from_column_slice(x);
+        hessian(
+            |v: SVector<Dual2SVec64<NG>, NG>| {
+                let a: [Dual2SVec64<NG>; NG] = std::array::from_fn(|i| v[i]);
+                self.cost(&a)
+            },
+            &z,
+        )
+    }
+}
+
+impl Nlp for EquilibriumProblem {
+    fn dims(&self) -> NlpDims {
+        NlpDims {
+            n: NG,
+            m: 0,
+            nnz_jac: 0,
+            nnz_hess: NG * (NG + 1) / 2,
+        }
+    }
+    fn bounds(&self, x_l: &mut [f64], x_u: &mut [f64], _g_l: &mut [f64], _g_u: &mut [f64]) {
+        let p = &self.vehicle;
+        x_l.fill(f64::NEG_INFINITY);
+        x_u.fill(f64::INFINITY);
+        // 0- <= r <= 0+: straight-line driving (eq. 8).
+        x_l[0] = -1e-6;
+        x_u[0] = 1e-6;
+        (x_l[1], x_u[1]) = self.v_bounds;
+        x_l[3] = p.v_wr_min;
+        (x_l[5 + iu::DELTA], x_u[5 + iu::DELTA]) = (-p.delta_max, p.delta_max);
+        (x_l[5 + iu::TCOMB], x_u[5 + iu::TCOMB]) = (p.t_comb_min, p.t_comb_max);
+        (x_l[5 + iu::TBF], x_u[5 + iu::TBF]) = (p.t_bf_min, p.t_bf_max);
+    }
+    fn initial_point(&self, x: &mut [f64]) {
+        x.copy_from_slice(&self.start);
+    }
+    fn jac_structure(&self, _: &mut [usize], _: &mut [usize]) {}
+    fn hess_structure(&self, rows: &mut [usize], cols: &mut [usize]) {
+        let mut k = 0;
+        for i in 0..NG {
+            for j in 0..=i {
+                rows[k] = i;
+                cols[k] = j;
+                k += 1;
+            }
+        }
+    }
+    fn eval_f(&mut self, x: &[f64]) -> f64 {
+        let a: [f64; NG] = std::array::from_fn(|i| x[i]);
+        self.cost(&a)
+    }
+    fn eval_grad_f(&mut self, x: &[f64], grad: &mut [f64]) {
+        let (_, g, _) = self.derivs(x);
+        grad.copy_from_slice(g.as_slice());
+    }
+    fn eval_g(&mut self, _: &[f64], _: &mut [f64]) {}
+    fn eval_jac_g(&mut self, _: &[f64], _: &mut [f64]) {}
+    fn eval_hess(&mut self, x: &[f64], obj_factor: f64, _: &[f64], vals: &mut [f64]) {
+        let (_, _, h) = self.derivs(x);
+        let mut k = 0;
+        for i in 0..NG {
+            for j in 0..=i {
+                vals[k] = obj_factor * h[(i, j)];
+                k += 1;
+            }
+        }
+    }
+}
+
+/// Solves eq. (8) for this vehicle (speed bounds and start speed as in
+/// [`EquilibriumProblem::new`]). Allocates; compute once per vehicle and cache it.
+pub fn equilibrium(
+    vehicle: &VehicleParams,
+    v_min: f64,
+    v_max: f64,
+    v_start: f64,
+) -> Result<(Equilibrium, SolveInfo), GuessError> {
+    let mut prob = EquilibriumProblem::new(*vehicle, v_min, v_max, v_start);
+    let settings = Settings {
+        tol: 1e-10,
+        constr_viol_tol: 1e-10,
+        max_iter: 200,
+        ..Settings::default()
+    };
+    let mut solver = Solver::new(&prob, settings)?;
+    let info = solver.solve(&mut prob);
+    let z = solver.x();
+    let cost = info.objective;
+    if !matches!(info.status, Status::Optimal | Status::Acceptable) || cost > 1e-8 {
+        return Err(GuessError::NotConverged {
+            status: info.status.name(),
+            cost,
+        });
+    }
+    let mut x = [0.0; NX];
+    x[..5].copy_from_slice(&z[..5]);
+    let u = [z[5], z[6], z[7]];
+    Ok((
+        Equilibrium {
+            x,
+            u,
+            cost,
+            status: info.status.name(),
+            iterations: info.iterations,
+        },
+        info,
+    ))
+}
+
+/// Fills node states and controls (physical units) from the equilibrium pair: dynamic
+/// states constant, e = dpsi = 0, s_k = k ds, t_k = s_k / V (paper Sec. V). With a fixed
+/// initial state, node 0 takes it and t_k uses its speed.
+pub fn fill_equilibrium(
+    eq: &Equilibrium,
+    ds: f64,
+    fixed_x0: Option<&[f64; NX]>,
+    xs: &mut [[f64; NX]],
+    us: &mut [[f64; NU]],
+) {
+    let v_avg = match fixed_x0 {
+        Some(x0) if x0[ix::V] > 0.0 => x0[ix::V],
+        _ => eq.x[ix::V],
+    };
+    for (k, x) in xs.iter_mut().enumerate() {
+        *x = eq.x;
+        x[ix::E] = 0.0;
+        x[ix::DPSI] = 0.0;
+        x[ix::S] = k as f64 * ds;
+        x[ix::T] = x[ix::S] / v_avg;
+    }
+    if let (Some(x0), Some(first)) = (fixed_x0, xs.first_mut()) {
+        *first = *x0;
+    }
+    for u in us.iter_mut() {
+        *u = eq.u;
+    }
+}
+
+/// Fills every node with zeros (the paper's ill-informed guess).
+pub fn fill_zero(xs: &mut [[f64; NX]], us: &mut [[f64; NU]]) {
+    xs.iter_mut().for_each(|x| *x = [0.0; NX]);
+    us.iter_mut().for_each(|u| *u = [0.0; NU]);
+}

@@ -352,6 +352,35 @@ fn segment_fields() {
 }
 
 #[test]
+fn bounds_must_leave_a_corridor_at_every_node() {
+    // Segments: a 5 m margin eats the whole 5 + 5 m track.
+    let root = TempRoot::new("seg-margin");
+    let path = segments_file(&root, "0.0", "");
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("edge_margin_m = 1.0", "edge_margin_m = 5.0"),
+    )
+    .unwrap();
+    let msg = message(
+        load_scenario(&path, Some("A"), vehicle()).unwrap_err(),
+        &path,
+    );
+    assert!(
+        msg.ends_with(
+            "A at node 0 (s = 0) = e_min 0, e_max 0: lateral bounds must satisfy e_min < e_max"
+        ),
+        "{msg}"
+    );
+    // Oval: constant lane bounds the wrong way round.
+    let root = TempRoot::new("oval-lane");
+    let text = shipped_text("scenarios/oval.toml").replacen("e_max_m = 4.0", "e_max_m = -4.0", 1);
+    let path = root.write("scenarios/oval.toml", &text);
+    let msg = message(load_scenario(&path, None, vehicle()).unwrap_err(), &path);
+    assert!(msg.ends_with("oval at node 0 (s = 0) = e_min -4, e_max -4: lateral bounds must satisfy e_min < e_max"), "{msg}");
+}
+
+#[test]
 fn segment_profile_errors_name_the_csv_line() {
     let root = TempRoot::new("seg-csv");
     let path = segments_file(&root, "0.0", "");

@@ -514,22 +514,16 @@ fn single(
     let road = Road::from_fn(length, n, |s| {
         (piecewise_constant(&pieces, s), e_min, e_max)
     });
-    let initial = initial_state(
+    finish(
         f,
-        file.initial_state,
-        "initial_state",
-        (e_min, e_max),
-        (v_min, v_max),
-    )?;
-    Ok(spec(
         name,
         length,
         road,
         (v_min, v_max),
         sat,
-        initial,
+        (file.initial_state, "initial_state"),
         vehicle,
-    ))
+    )
 }
 
 fn check_geometry(f: Fields<'_>, g: Geometry) -> Result<(), ConfigError> {
@@ -632,22 +626,16 @@ fn segments(
         n_intervals: n,
     }
     .sample(&profile, margin);
-    let initial = initial_state(
+    finish(
         f,
-        d.initial_state,
-        "defaults.initial_state",
-        (road.e_min[0], road.e_max[0]),
-        (v_min, v_max),
-    )?;
-    Ok(spec(
         name,
         length,
         road,
         (v_min, v_max),
         sat,
-        initial,
+        (d.initial_state, "defaults.initial_state"),
         vehicle,
-    ))
+    )
 }
 
 /// Rewrites a `segments.key` field to `segments[name].key`.
@@ -744,35 +732,40 @@ fn obstacles(
     }
     let mut road = Road::uniform(length, n, kappa, e_min, e_max);
     road.apply_overrides(&overrides);
-    check_road(f, &name, &road)?;
-    let initial = initial_state(
+    finish(
         f,
-        c.initial_state,
-        "common.initial_state",
-        (road.e_min[0], road.e_max[0]),
-        (v_min, v_max),
-    )?;
-    Ok(spec(
         name,
         length,
         road,
         (v_min, v_max),
         sat,
-        initial,
+        (c.initial_state, "common.initial_state"),
         vehicle,
-    ))
+    )
 }
 
-fn spec(
+/// Checks the road (finite, e_min < e_max at every node), reads the initial state
+/// against it and assembles the spec.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    f: Fields<'_>,
     name: String,
     length: f64,
     road: Road,
     (v_min, v_max): (f64, f64),
     enforce_tire_saturation: bool,
-    initial: InitialState,
+    (initial, initial_field): (Option<InitialStateToml>, &str),
     vehicle: VehicleParams,
-) -> OcpSpec {
-    OcpSpec {
+) -> Result<OcpSpec, ConfigError> {
+    check_road(f, &name, &road)?;
+    let initial = initial_state(
+        f,
+        initial,
+        initial_field,
+        (road.e_min[0], road.e_max[0]),
+        (v_min, v_max),
+    )?;
+    Ok(OcpSpec {
         name,
         n_intervals: road.n_intervals(),
         length,
@@ -784,5 +777,5 @@ fn spec(
         enforce_tire_saturation,
         initial,
         vehicle,
-    }
+    })
 }

@@ -1,1 +1,17 @@
-//! Configuration files (vehicle, scenarios, solver settings): serde types and validation.
+//! Configuration files (vehicle, scenarios, track index): serde types and validation.
+//!
+//! The data root (`config/` in the repository) holds `vehicles/`, `scenarios/` and
+//! `tracks/`; paths written inside scenario files resolve against it ([`data_root_of`]).
+//! Every failure is a [`ConfigError`] naming the file and the field or CSV line.
+
+pub(crate) mod csv;
+mod error;
+mod fields;
+mod scenario;
+mod tracks;
+mod vehicle;
+
+pub use error::ConfigError;
+pub use scenario::{data_root_of, list_selections, load_scenario};
+pub use tracks::{load_track_index, Direction, TrackInfo};
+pub use vehicle::load_vehicle;

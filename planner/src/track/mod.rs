@@ -1,0 +1,14 @@
+//! Road ahead: curvature k_ref(s), lane bounds e_min(s)/e_max(s), obstacles, segments.
+//!
+//! [`Profile`] is a closed track on a uniform s grid (the canonical `*_profile.csv`, or
+//! smoothed from a raw centerline by [`Profile::from_centerline`]); [`Segment`] cuts a
+//! horizon out of it and samples a [`Road`] at the OCP nodes; [`BoundsOverride`] puts
+//! obstacles into the lateral bounds.
+
+mod centerline;
+mod profile;
+mod segment;
+
+pub use centerline::{KNOT_SPACING_M, PENALTY_LAMBDA};
+pub use profile::{Profile, PROFILE_COLUMNS};
+pub use segment::{piecewise_constant, BoundsOverride, Road, Segment};

@@ -14,3 +14,4 @@ pub mod ip;
 pub mod model;
 pub mod ocp;
 pub mod track;
+pub mod trajectory;

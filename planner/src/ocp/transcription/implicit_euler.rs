@@ -96,7 +96,7 @@ impl DefectScheme for ImplicitEuler {
                 let g = grad(&f[i]);
                 let c = -cx.ds / X_NOMINAL[i];
                 for (l, gl) in g.iter().enumerate() {
-                    vals[p] = c * gl + if l == i { 1.0 } else { 0.0 };
+                    vals[p] = c * gl + if l == i && l < NXIN { 1.0 } else { 0.0 };
                     p += 1;
                 }
             }

@@ -180,6 +180,9 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
 /// The implicit-Euler transcription used by the paper's best solver pairing.
 pub type ImplicitEulerNlp<const N: usize> = Transcription<ImplicitEuler, N>;
 
+/// Pattern sink: (local row, column).
+type Push<'a> = &'a mut dyn FnMut(usize, usize);
+
 /// Deduplicating builder of the lower-triangle Hessian structure.
 struct HessBuilder {
     rows: Vec<usize>,
@@ -243,10 +246,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         for k in 0..N {
             let mut st = Stage::default();
             let push_group =
-                |base: usize,
-                 jr: &mut Vec<usize>,
-                 jc: &mut Vec<usize>,
-                 f: &mut dyn FnMut(&mut dyn FnMut(usize, usize))| {
+                |base: usize, jr: &mut Vec<usize>, jc: &mut Vec<usize>, f: &mut dyn FnMut(Push)| {
                     f(&mut |r, c| {
                         jr.push(base + r);
                         jc.push(c);
@@ -472,8 +472,8 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         let mut g = std::mem::take(&mut self.g_buf);
         self.eval_g(z, &mut g);
         let mut v: f64 = 0.0;
-        for i in 0..self.m {
-            v = v.max(self.g_l[i] - g[i]).max(g[i] - self.g_u[i]);
+        for ((gi, lo), hi) in g.iter().zip(&self.g_l).zip(&self.g_u) {
+            v = v.max(lo - gi).max(gi - hi);
         }
         for (i, zi) in z.iter().enumerate() {
             v = v.max(self.x_l[i] - zi).max(zi - self.x_u[i]);

@@ -15,6 +15,9 @@
 //! * Fiala saturation (R4): F_total = F_max (1 - (1 - min(x, 1))^3), x = C sigma/(3 F_max), is
 //!   C2 at x = 1 (value, slope and curvature continuous), so exact Hessians exist; the branch is
 //!   chosen on the real part of x.
+//! * `eps_sat` (R5, used by the OCP, not by the force law): the saturation constraint
+//!   sigma - sigma_sl <= eps_sat lets each tire go up to 0.01 (tan-slip units, ~0.6 deg)
+//!   past the onset of full sliding, so brief saturation does not make the OCP infeasible.
 
 use super::{iu, ix, VehicleParams, NU, NX};
 use num_dual::DualNum;

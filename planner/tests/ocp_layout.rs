@@ -98,12 +98,12 @@ fn guess_round_trip_and_feasible_straight() {
     let m = nlp.dims().m;
     let mut g = vec![0.0; m];
     nlp.eval_g(&z, &mut g);
-    for i in 0..m {
+    for (i, gi) in g.iter().enumerate() {
         let info = nlp.describe_row(i);
         if let RowKind::Defect { .. } = info.kind {
             let kappa = nlp.spec().kappa[info.node + 1];
             if kappa == 0.0 {
-                assert!(g[i].abs() < 1e-12, "{} = {}", nlp.row_name(i), g[i]);
+                assert!(gi.abs() < 1e-12, "{} = {gi}", nlp.row_name(i));
             }
         }
     }

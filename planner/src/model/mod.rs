@@ -2,14 +2,23 @@
 //! Fiala tires, written once, generic over the scalar type so exact derivatives come from
 //! the same code.
 
+pub mod dynamics;
 pub mod params;
+pub mod tire;
 
+pub use dynamics::{spatial_derivatives, time_derivatives, TimeDerivatives};
 pub use params::VehicleParams;
+pub use tire::{saturation, tire_forces, TireForces};
 
 /// Number of states x = [r, V, beta, V_wr, dFz, e, dpsi, s, t] (paper eq. 1).
 pub const NX: usize = 9;
 /// Number of controls u = [delta, T_comb, T_bf].
 pub const NU: usize = 3;
+
+/// Names of the states in x order.
+pub const STATE_NAMES: [&str; NX] = ["r", "V", "beta", "V_wr", "dFz", "e", "dpsi", "s", "t"];
+/// Names of the controls in u order.
+pub const CONTROL_NAMES: [&str; NU] = ["delta", "T_comb", "T_bf"];
 
 /// Index of each state in x.
 pub mod ix {

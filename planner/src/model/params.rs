@@ -68,3 +68,36 @@ impl VehicleParams {
         self.m * self.g * self.a / self.l
     }
 }
+
+/// Test fixture: the Lexus LC 500 values of `vehicles/lc500.toml` (until the config loader
+/// lands).
+#[doc(hidden)]
+pub fn lc500() -> VehicleParams {
+    VehicleParams {
+        m: 1970.0,
+        l: 2.87,
+        a: 1.378,
+        b: 1.492,
+        h_cg: 0.47,
+        i_z: 4000.0,
+        g: 9.81,
+        r_w: 0.35,
+        i_w: 3.6,
+        c_f: 160000.0,
+        c_r: 190000.0,
+        mu: 1.0,
+        c_l: 10.0,
+        delta_max: 0.55,
+        t_comb_max: 4500.0,
+        t_comb_min: -3500.0,
+        t_bf_min: -3500.0,
+        t_bf_max: 0.0,
+        v_wr_min: 0.0,
+        delta_rate_max: 1.0,
+        t_comb_rate_max: 20000.0,
+        t_bf_rate_max: 30000.0,
+        eps_sigma: 1.0e-3,
+        eps_sat: 0.01,
+        fmax_floor_frac: 0.01,
+    }
+}

@@ -1,6 +1,18 @@
 //! The NLP view of the minimum-time OCP (paper eq. 3): problem data, variable layout,
 //! scaling, and transcriptions that evaluate into preallocated buffers.
 
+pub(crate) mod ad;
+#[doc(hidden)]
+pub mod fixtures;
+pub mod layout;
+pub mod path_constraints;
+pub mod scaling;
 pub mod spec;
+pub mod transcription;
 
+pub use layout::Layout;
 pub use spec::{InitialState, OcpSpec};
+pub use transcription::{
+    DefectScheme, ImplicitEuler, ImplicitEulerNlp, RowInfo, RowKind, Transcription,
+    TranscriptionError,
+};

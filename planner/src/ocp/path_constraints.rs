@@ -1,0 +1,254 @@
+//! Constraints shared by every transcription (paper eq. 3 minus the dynamics): initial
+//! conditions, variable bounds, control rates, front friction (R9) and tire saturation
+//! (R4, R5), all in the scaled units of [`super::scaling`].
+//!
+//! Each group provides a Jacobian pattern (local row, global column), values in pattern
+//! order, and (saturation only, the others are linear) a Hessian in a fixed lower-triangle
+//! pattern.
+
+use super::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
+use super::layout::Layout;
+use super::scaling::{FRICTION_SCALE, SATURATION_SCALE, U_NOMINAL, X_NOMINAL};
+use super::spec::{InitialState, OcpSpec};
+use crate::model::{iu, ix, saturation, VehicleParams, NU, NX};
+use num_dual::DualNum;
+
+/// Front friction rows per interval (R9): at (x_k, u_k) and at (x_{k+1}, u_k).
+pub const FRICTION_ROWS: usize = 2;
+/// Jacobian entries of the friction rows per interval.
+pub const FRICTION_NNZ: usize = 4;
+/// Saturation rows per interval (front, rear) at (x_k, u_k).
+pub const SATURATION_ROWS: usize = 2;
+/// Model inputs the saturation rows depend on: r, V, beta, V_wr, dFz, delta, T_bf.
+pub const SATURATION_INPUTS: usize = 7;
+/// Jacobian entries of the saturation rows per interval.
+pub const SATURATION_NNZ: usize = SATURATION_ROWS * SATURATION_INPUTS;
+/// Lower-triangle Hessian entries of the saturation rows per interval.
+pub const SATURATION_HESS_NNZ: usize = SATURATION_INPUTS * (SATURATION_INPUTS + 1) / 2;
+/// Control-rate rows per interval k >= 1 (upper and lower for each control).
+pub const RATE_ROWS: usize = 2 * NU;
+/// Jacobian entries of the rate rows per interval k >= 1.
+pub const RATE_NNZ: usize = 4 * RATE_ROWS;
+
+const SAT_STATES: [usize; 5] = [ix::R, ix::V, ix::BETA, ix::VWR, ix::DFZ];
+const SAT_CONTROLS: [usize; 2] = [iu::DELTA, iu::TBF];
+
+/// States fixed by the initial-condition equality rows: Free -> s_0, t_0, dpsi_0;
+/// Fixed -> all nine.
+pub fn initial_states(spec: &OcpSpec) -> &'static [usize] {
+    match spec.initial {
+        InitialState::Free => &[ix::S, ix::T, ix::DPSI],
+        InitialState::Fixed(_) => &[0, 1, 2, 3, 4, 5, 6, 7, 8],
+    }
+}
+
+/// Scaled target value of initial-condition state `i`.
+pub fn initial_target(spec: &OcpSpec, i: usize) -> f64 {
+    match spec.initial {
+        InitialState::Free => 0.0,
+        InitialState::Fixed(x0) => x0[i] / X_NOMINAL[i],
+    }
+}
+
+/// Variable bounds in scaled units: e and V at every node, V_wr >= v_wr_min (R10), control
+/// box; everything else free. With a Fixed initial state, x_0 is left unbounded (its
+/// equality rows pin it; a value on a bound would leave no interior).
+pub fn variable_bounds(lay: &Layout, spec: &OcpSpec, x_l: &mut [f64], x_u: &mut [f64]) {
+    let p = &spec.vehicle;
+    x_l.fill(f64::NEG_INFINITY);
+    x_u.fill(f64::INFINITY);
+    let first = match spec.initial {
+        InitialState::Free => 0,
+        InitialState::Fixed(_) => 1,
+    };
+    for k in first..=lay.n_intervals {
+        x_l[lay.x(k, ix::E)] = spec.e_min[k] / X_NOMINAL[ix::E];
+        x_u[lay.x(k, ix::E)] = spec.e_max[k] / X_NOMINAL[ix::E];
+        x_l[lay.x(k, ix::V)] = spec.v_min / X_NOMINAL[ix::V];
+        x_u[lay.x(k, ix::V)] = spec.v_max / X_NOMINAL[ix::V];
+        x_l[lay.x(k, ix::VWR)] = p.v_wr_min / X_NOMINAL[ix::VWR];
+    }
+    let (ul, uu) = control_box(p);
+    for k in 0..lay.n_intervals {
+        for j in 0..NU {
+            x_l[lay.u(k, j)] = ul[j] / U_NOMINAL[j];
+            x_u[lay.u(k, j)] = uu[j] / U_NOMINAL[j];
+        }
+    }
+}
+
+/// Physical control box (lower, upper).
+pub fn control_box(p: &VehicleParams) -> ([f64; NU], [f64; NU]) {
+    (
+        [-p.delta_max, p.t_comb_min, p.t_bf_min],
+        [p.delta_max, p.t_comb_max, p.t_bf_max],
+    )
+}
+
+/// Rate bound of each control [unit/s].
+pub fn rate_bounds(p: &VehicleParams) -> [f64; NU] {
+    [p.delta_rate_max, p.t_comb_rate_max, p.t_bf_rate_max]
+}
+
+// ---------------------------------------------------------------- front friction (R9)
+
+/// Jacobian pattern of the friction rows of interval k: (local row, column).
+pub fn friction_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {
+    push(0, lay.x(k, ix::DFZ));
+    push(0, lay.u(k, iu::TBF));
+    push(1, lay.x(k + 1, ix::DFZ));
+    push(1, lay.u(k, iu::TBF));
+}
+
+/// R9 row (T_bf/R_w + mu (F_zf,nom - dFz)) / 1000 N >= 0 at (x_k, u_k) and (x_{k+1}, u_k).
+pub fn friction_eval(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+    let fxf = z[lay.u(k, iu::TBF)] * U_NOMINAL[iu::TBF] / p.r_w;
+    for (o, node) in [k, k + 1].into_iter().enumerate() {
+        let dfz = z[lay.x(node, ix::DFZ)] * X_NOMINAL[ix::DFZ];
+        out[o] = (fxf + p.mu * (p.fz_nom_front() - dfz)) / FRICTION_SCALE;
+    }
+}
+
+/// Friction Jacobian values in [`friction_pattern`] order (constant).
+pub fn friction_jac(p: &VehicleParams, out: &mut [f64]) {
+    let c_dfz = -p.mu * X_NOMINAL[ix::DFZ] / FRICTION_SCALE;
+    let c_tbf = U_NOMINAL[iu::TBF] / (p.r_w * FRICTION_SCALE);
+    out[..FRICTION_NNZ].copy_from_slice(&[c_dfz, c_tbf, c_dfz, c_tbf]);
+}
+
+// ---------------------------------------------------------------- tire saturation (R4, R5)
+
+/// Column of saturation input `l` of interval k (evaluated at (x_k, u_k)).
+#[inline]
+fn sat_col(lay: &Layout, k: usize, l: usize) -> usize {
+    if l < SAT_STATES.len() {
+        lay.x(k, SAT_STATES[l])
+    } else {
+        lay.u(k, SAT_CONTROLS[l - SAT_STATES.len()])
+    }
+}
+
+/// Builds physical (x, u) at (x_k, u_k) where saturation input `l` is `seed(z, l) * nominal`
+/// and every other entry is a constant.
+#[inline]
+fn sat_point<D: DualNum<Primitive = f64> + Copy>(
+    lay: &Layout,
+    k: usize,
+    z: &[f64],
+    seed: impl Fn(f64, usize) -> D,
+) -> ([D; NX], [D; NU]) {
+    let mut x: [D; NX] = std::array::from_fn(|i| D::from(z[lay.x(k, i)] * X_NOMINAL[i]));
+    let mut u: [D; NU] = std::array::from_fn(|j| D::from(z[lay.u(k, j)] * U_NOMINAL[j]));
+    for (l, &i) in SAT_STATES.iter().enumerate() {
+        x[i] = seed(z[lay.x(k, i)], l) * X_NOMINAL[i];
+    }
+    for (l, &j) in SAT_CONTROLS.iter().enumerate() {
+        u[j] = seed(z[lay.u(k, j)], SAT_STATES.len() + l) * U_NOMINAL[j];
+    }
+    (x, u)
+}
+
+/// Jacobian pattern of the saturation rows of interval k: (local row, column).
+pub fn saturation_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {
+    for row in 0..SATURATION_ROWS {
+        for l in 0..SATURATION_INPUTS {
+            push(row, sat_col(lay, k, l));
+        }
+    }
+}
+
+/// Saturation rows (sigma - sigma_sl) / 0.1 (front, rear) at (x_k, u_k); upper bound
+/// eps_sat / 0.1.
+pub fn saturation_eval(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
+    let s = saturation(p, &x, &u);
+    out[0] = s[0] / SATURATION_SCALE;
+    out[1] = s[1] / SATURATION_SCALE;
+}
+
+/// Saturation Jacobian values in [`saturation_pattern`] order.
+pub fn saturation_jac(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+    let (x, u) = sat_point(lay, k, z, seed1::<SATURATION_INPUTS>);
+    let s = saturation(p, &x, &u);
+    for row in 0..SATURATION_ROWS {
+        let g = grad(&s[row]);
+        for l in 0..SATURATION_INPUTS {
+            out[row * SATURATION_INPUTS + l] = g[l] / SATURATION_SCALE;
+        }
+    }
+}
+
+/// Hessian pattern of the saturation rows of interval k: global (row >= col) pairs.
+pub fn saturation_hess_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {
+    for (i, j) in lower_pairs(SATURATION_INPUTS) {
+        let (a, b) = (sat_col(lay, k, i), sat_col(lay, k, j));
+        push(a.max(b), a.min(b));
+    }
+}
+
+/// Hessian of lambda_f g_f + lambda_r g_r (the two saturation rows of interval k), in
+/// [`saturation_hess_pattern`] order (overwrites `out`).
+pub fn saturation_hess(
+    p: &VehicleParams,
+    lay: &Layout,
+    k: usize,
+    z: &[f64],
+    lambda: &[f64],
+    out: &mut [f64],
+) {
+    let (x, u) = sat_point(lay, k, z, seed2::<SATURATION_INPUTS>);
+    let s = saturation(p, &x, &u);
+    let phi = (s[0] * lambda[0] + s[1] * lambda[1]) / SATURATION_SCALE;
+    lower_hessian(&phi, out);
+}
+
+// ---------------------------------------------------------------- control rates
+
+/// Jacobian pattern of the rate rows of interval k >= 1: for each control j an upper and
+/// a lower row, entries (u_k[j], u_{k-1}[j], t_k, t_{k-1}).
+pub fn rate_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {
+    for j in 0..NU {
+        for side in 0..2 {
+            let row = 2 * j + side;
+            push(row, lay.u(k, j));
+            push(row, lay.u(k - 1, j));
+            push(row, lay.x(k, ix::T));
+            push(row, lay.x(k - 1, ix::T));
+        }
+    }
+}
+
+/// Rate rows in the multiplied form (reference finding (b)), divided by the rate bound:
+/// upper (u_k - u_{k-1} - rate (t_k - t_{k-1})) / rate <= 0,
+/// lower (u_k - u_{k-1} + rate (t_k - t_{k-1})) / rate >= 0.
+pub fn rate_eval(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+    let rates = rate_bounds(p);
+    let dt = (z[lay.x(k, ix::T)] - z[lay.x(k - 1, ix::T)]) * X_NOMINAL[ix::T];
+    for j in 0..NU {
+        let du = (z[lay.u(k, j)] - z[lay.u(k - 1, j)]) * U_NOMINAL[j] / rates[j];
+        out[2 * j] = du - dt;
+        out[2 * j + 1] = du + dt;
+    }
+}
+
+/// Rate Jacobian values in [`rate_pattern`] order (constant).
+pub fn rate_jac(p: &VehicleParams, out: &mut [f64]) {
+    let rates = rate_bounds(p);
+    let ct = X_NOMINAL[ix::T];
+    for j in 0..NU {
+        let cu = U_NOMINAL[j] / rates[j];
+        let o = 8 * j;
+        out[o..o + 4].copy_from_slice(&[cu, -cu, -ct, ct]);
+        out[o + 4..o + 8].copy_from_slice(&[cu, -cu, ct, -ct]);
+    }
+}
+
+/// Bounds of the 6 rate rows: upper rows (-inf, 0], lower rows [0, inf).
+pub fn rate_row_bounds(g_l: &mut [f64], g_u: &mut [f64]) {
+    for j in 0..NU {
+        g_l[2 * j] = f64::NEG_INFINITY;
+        g_u[2 * j] = 0.0;
+        g_l[2 * j + 1] = 0.0;
+        g_u[2 * j + 1] = f64::INFINITY;
+    }
+}

@@ -1,0 +1,36 @@
+//! Scaling of the NLP (reference README finding (a)): every decision variable is
+//! `physical / nominal`, every constraint row is divided by a fixed scale. Scaling does not
+//! change the solution, only the solver's view of it; without it the oval does not converge.
+
+use crate::model::{NU, NX};
+
+/// Nominal value of each state [r, V, beta, V_wr, dFz, e, dpsi, s, t] (SI units).
+pub const X_NOMINAL: [f64; NX] = [1.0, 10.0, 0.1, 10.0, 1000.0, 1.0, 0.1, 100.0, 10.0];
+/// Nominal value of each control [delta, T_comb, T_bf] (SI units).
+pub const U_NOMINAL: [f64; NU] = [0.1, 1000.0, 1000.0];
+/// Scale of the objective: f = t_N / OBJECTIVE_SCALE.
+pub const OBJECTIVE_SCALE: f64 = 10.0;
+/// Scale of the front friction rows (R9) [N].
+pub const FRICTION_SCALE: f64 = 1000.0;
+/// Scale of the tire saturation rows (R5) [-].
+pub const SATURATION_SCALE: f64 = 0.1;
+
+/// Scaled value of a physical state vector.
+pub fn scale_state(x: &[f64; NX]) -> [f64; NX] {
+    std::array::from_fn(|i| x[i] / X_NOMINAL[i])
+}
+
+/// Scaled value of a physical control vector.
+pub fn scale_control(u: &[f64; NU]) -> [f64; NU] {
+    std::array::from_fn(|i| u[i] / U_NOMINAL[i])
+}
+
+/// Physical value of a scaled state vector.
+pub fn unscale_state(z: &[f64]) -> [f64; NX] {
+    std::array::from_fn(|i| z[i] * X_NOMINAL[i])
+}
+
+/// Physical value of a scaled control vector.
+pub fn unscale_control(z: &[f64]) -> [f64; NU] {
+    std::array::from_fn(|i| z[i] * U_NOMINAL[i])
+}

@@ -1,0 +1,688 @@
+//! Direct multiple-shooting transcriptions of the minimum-time OCP (paper eq. 3) as an
+//! [`Nlp`].
+//!
+//! [`Transcription`] owns everything that does not depend on the integrator: the variable
+//! [`Layout`], scaling, bounds, objective, initial-condition rows and the path constraints
+//! of [`crate::ocp::path_constraints`]. A [`DefectScheme`] supplies only the dynamics defect
+//! rows of each interval (plus, for collocation schemes, its stage variables), so other
+//! integrators (RK2/4, BDF, Crank-Nicolson, Gauss-Legendre) plug in without touching the
+//! model, the shared constraints or the solver. [`ImplicitEuler`] is the first scheme.
+//!
+//! Rows are ordered stage by stage: first the initial-condition rows, then for each
+//! interval k = 0..N-1: the scheme's defect rows, the two front friction rows (R9), the two
+//! saturation rows (R5, when enforced) and, for k >= 1, the six control-rate rows.
+//!
+//! The terminal condition s_N = length of paper eq. (3) is deliberately NOT a row: it follows
+//! from s_0 = 0 and the linear s defects (ds/ds = 1), so adding it would make the constraint
+//! Jacobian rank deficient (a redundant equality the interior-point solver cannot handle).
+
+pub mod implicit_euler;
+
+pub use implicit_euler::ImplicitEuler;
+
+use super::layout::Layout;
+use super::path_constraints::{self as pc, *};
+use super::scaling::{scale_control, scale_state, unscale_control, unscale_state};
+use super::scaling::{OBJECTIVE_SCALE, SATURATION_SCALE, X_NOMINAL};
+use super::spec::OcpSpec;
+use crate::ip::{Nlp, NlpDims};
+use crate::model::{ix, VehicleParams, CONTROL_NAMES, NU, NX, STATE_NAMES};
+use std::collections::HashMap;
+
+/// Read-only problem data a [`DefectScheme`] evaluates with.
+#[derive(Debug, Clone, Copy)]
+pub struct SchemeContext<'a> {
+    /// Vehicle parameters.
+    pub vehicle: &'a VehicleParams,
+    /// Node spacing ds [m].
+    pub ds: f64,
+    /// k_ref at every node (R8).
+    pub kappa: &'a [f64],
+    /// Decision-vector layout.
+    pub layout: Layout,
+}
+
+/// The integrator-specific part of a transcription: the defect rows of one interval.
+///
+/// All values are in scaled units; Jacobian values are written in `jac_pattern` order and
+/// Hessian values (of `lambda^T defect_k`, lower triangle, global indices) in `hess_pattern`
+/// order. Patterns are queried once at construction; evaluations must not allocate.
+pub trait DefectScheme {
+    /// Extra variables per interval (collocation stage states); 0 for single-step schemes.
+    const STAGE_VARS: usize;
+    /// Defect rows per interval.
+    const ROWS: usize;
+    /// Short name of the scheme.
+    fn name(&self) -> &'static str;
+    /// Name of defect row `row` (for diagnostics).
+    fn row_name(&self, row: usize) -> &'static str;
+    /// Jacobian pattern of interval k as (local row, global column) pairs.
+    fn jac_pattern(&self, lay: &Layout, k: usize, push: &mut dyn FnMut(usize, usize));
+    /// Defect values of interval k.
+    fn eval(&self, cx: &SchemeContext, k: usize, z: &[f64], out: &mut [f64]);
+    /// Jacobian values of interval k in `jac_pattern` order.
+    fn jac(&self, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]);
+    /// Hessian pattern of interval k as global (row >= col) pairs.
+    fn hess_pattern(&self, lay: &Layout, k: usize, push: &mut dyn FnMut(usize, usize));
+    /// Hessian of `lambda^T defect_k` in `hess_pattern` order (overwrites `vals`).
+    fn hess(&self, cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]);
+    /// Fills the stage variables of interval k of a starting point (default: nothing).
+    fn guess_stage_vars(&self, _cx: &SchemeContext, _k: usize, _z: &mut [f64]) {}
+}
+
+/// Errors building a transcription.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum TranscriptionError {
+    /// The spec's interval count differs from the compiled-in N.
+    #[error("spec has {got} intervals, this transcription is built for N = {expected}")]
+    WrongN {
+        /// Compiled-in N.
+        expected: usize,
+        /// spec.n_intervals.
+        got: usize,
+    },
+    /// A per-node vector has the wrong length.
+    #[error("spec field {field} has {got} entries, expected N + 1 = {expected}")]
+    BadLength {
+        /// Field name.
+        field: &'static str,
+        /// N + 1.
+        expected: usize,
+        /// Actual length.
+        got: usize,
+    },
+}
+
+/// What a constraint row is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowKind {
+    /// Initial-condition equality x_0[state] = target.
+    Initial {
+        /// State index.
+        state: usize,
+    },
+    /// Defect row of the scheme (for implicit Euler: the state index).
+    Defect {
+        /// Local defect row.
+        row: usize,
+    },
+    /// Front friction limit (R9) at (x_k, u_k) or, if `at_next`, at (x_{k+1}, u_k).
+    Friction {
+        /// Evaluated at x_{k+1}.
+        at_next: bool,
+    },
+    /// Tire saturation (R5), front or rear axle.
+    Saturation {
+        /// Rear axle.
+        rear: bool,
+    },
+    /// Upper control-rate row u_k - u_{k-1} <= rate (t_k - t_{k-1}).
+    RateUpper {
+        /// Control index.
+        control: usize,
+    },
+    /// Lower control-rate row u_k - u_{k-1} >= -rate (t_k - t_{k-1}).
+    RateLower {
+        /// Control index.
+        control: usize,
+    },
+}
+
+/// Kind and node (interval k) of a constraint row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RowInfo {
+    /// What the row is.
+    pub kind: RowKind,
+    /// Node / interval index k.
+    pub node: usize,
+}
+
+/// Offsets of one interval's rows and Jacobian entries.
+#[derive(Debug, Clone, Copy, Default)]
+struct Stage {
+    row_defect: usize,
+    row_friction: usize,
+    row_sat: usize,
+    row_rate: usize,
+    jac_defect: usize,
+    jac_friction: usize,
+    jac_sat: usize,
+    jac_rate: usize,
+}
+
+/// Transcription of the minimum-time OCP with N intervals and defect scheme `S`.
+#[derive(Debug, Clone)]
+pub struct Transcription<S: DefectScheme, const N: usize> {
+    spec: OcpSpec,
+    scheme: S,
+    layout: Layout,
+    n_init: usize,
+    m: usize,
+    stages: Vec<Stage>,
+    jac_rows: Vec<usize>,
+    jac_cols: Vec<usize>,
+    jac_defect_len: Vec<usize>,
+    hess_rows: Vec<usize>,
+    hess_cols: Vec<usize>,
+    hess_defect_off: Vec<usize>,
+    hess_defect_slots: Vec<usize>,
+    hess_sat_slots: Vec<usize>,
+    scratch: Vec<f64>,
+    g_buf: Vec<f64>,
+    x_l: Vec<f64>,
+    x_u: Vec<f64>,
+    g_l: Vec<f64>,
+    g_u: Vec<f64>,
+    z0: Vec<f64>,
+    rows: Vec<RowInfo>,
+}
+
+/// The implicit-Euler transcription used by the paper's best solver pairing.
+pub type ImplicitEulerNlp<const N: usize> = Transcription<ImplicitEuler, N>;
+
+/// Pattern sink: (local row, column).
+type Push<'a> = &'a mut dyn FnMut(usize, usize);
+
+/// Deduplicating builder of the lower-triangle Hessian structure.
+struct HessBuilder {
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    map: HashMap<(usize, usize), usize>,
+}
+
+impl HessBuilder {
+    fn slot(&mut self, r: usize, c: usize) -> usize {
+        debug_assert!(r >= c);
+        let next = self.rows.len();
+        *self.map.entry((r, c)).or_insert_with(|| {
+            self.rows.push(r);
+            self.cols.push(c);
+            next
+        })
+    }
+}
+
+impl<S: DefectScheme, const N: usize> Transcription<S, N> {
+    /// Builds the transcription (all structures and buffers) for `spec` with `scheme`.
+    pub fn with_scheme(spec: OcpSpec, scheme: S) -> Result<Self, TranscriptionError> {
+        if spec.n_intervals != N {
+            return Err(TranscriptionError::WrongN {
+                expected: N,
+                got: spec.n_intervals,
+            });
+        }
+        for (field, len) in [
+            ("kappa", spec.kappa.len()),
+            ("e_min", spec.e_min.len()),
+            ("e_max", spec.e_max.len()),
+        ] {
+            if len != N + 1 {
+                return Err(TranscriptionError::BadLength {
+                    field,
+                    expected: N + 1,
+                    got: len,
+                });
+            }
+        }
+        let layout = Layout::new(N, S::STAGE_VARS);
+        let sat = spec.enforce_tire_saturation;
+        let init = pc::initial_states(&spec);
+        let n_init = init.len();
+
+        let mut rows = Vec::new();
+        let mut jac_rows = Vec::new();
+        let mut jac_cols = Vec::new();
+        for &i in init {
+            rows.push(RowInfo {
+                kind: RowKind::Initial { state: i },
+                node: 0,
+            });
+            jac_rows.push(rows.len() - 1);
+            jac_cols.push(layout.x(0, i));
+        }
+
+        let mut stages = Vec::with_capacity(N);
+        let mut jac_defect_len = Vec::with_capacity(N);
+        for k in 0..N {
+            let mut st = Stage::default();
+            let push_group =
+                |base: usize, jr: &mut Vec<usize>, jc: &mut Vec<usize>, f: &mut dyn FnMut(Push)| {
+                    f(&mut |r, c| {
+                        jr.push(base + r);
+                        jc.push(c);
+                    });
+                };
+            // Defects.
+            st.row_defect = rows.len();
+            st.jac_defect = jac_rows.len();
+            for r in 0..S::ROWS {
+                rows.push(RowInfo {
+                    kind: RowKind::Defect { row: r },
+                    node: k,
+                });
+            }
+            push_group(st.row_defect, &mut jac_rows, &mut jac_cols, &mut |p| {
+                scheme.jac_pattern(&layout, k, p)
+            });
+            jac_defect_len.push(jac_rows.len() - st.jac_defect);
+            // Front friction (R9).
+            st.row_friction = rows.len();
+            st.jac_friction = jac_rows.len();
+            for at_next in [false, true] {
+                rows.push(RowInfo {
+                    kind: RowKind::Friction { at_next },
+                    node: k,
+                });
+            }
+            push_group(st.row_friction, &mut jac_rows, &mut jac_cols, &mut |p| {
+                friction_pattern(&layout, k, &mut |r, c| p(r, c))
+            });
+            // Saturation (R5).
+            st.row_sat = rows.len();
+            st.jac_sat = jac_rows.len();
+            if sat {
+                for rear in [false, true] {
+                    rows.push(RowInfo {
+                        kind: RowKind::Saturation { rear },
+                        node: k,
+                    });
+                }
+                push_group(st.row_sat, &mut jac_rows, &mut jac_cols, &mut |p| {
+                    saturation_pattern(&layout, k, &mut |r, c| p(r, c))
+                });
+            }
+            // Control rates.
+            st.row_rate = rows.len();
+            st.jac_rate = jac_rows.len();
+            if k >= 1 {
+                for j in 0..NU {
+                    rows.push(RowInfo {
+                        kind: RowKind::RateUpper { control: j },
+                        node: k,
+                    });
+                    rows.push(RowInfo {
+                        kind: RowKind::RateLower { control: j },
+                        node: k,
+                    });
+                }
+                push_group(st.row_rate, &mut jac_rows, &mut jac_cols, &mut |p| {
+                    rate_pattern(&layout, k, &mut |r, c| p(r, c))
+                });
+            }
+            stages.push(st);
+        }
+        let m = rows.len();
+
+        // Hessian: union of the defect and saturation blocks, deduplicated.
+        let mut hb = HessBuilder {
+            rows: Vec::new(),
+            cols: Vec::new(),
+            map: HashMap::new(),
+        };
+        let mut hess_defect_off = vec![0];
+        let mut hess_defect_slots = Vec::new();
+        let mut hess_sat_slots = Vec::new();
+        let mut max_block = SATURATION_HESS_NNZ;
+        for k in 0..N {
+            scheme.hess_pattern(&layout, k, &mut |r, c| {
+                let s = hb.slot(r, c);
+                hess_defect_slots.push(s);
+            });
+            hess_defect_off.push(hess_defect_slots.len());
+            max_block = max_block.max(hess_defect_off[k + 1] - hess_defect_off[k]);
+            if sat {
+                saturation_hess_pattern(&layout, k, &mut |r, c| {
+                    let s = hb.slot(r, c);
+                    hess_sat_slots.push(s);
+                });
+            }
+        }
+
+        let n = layout.n();
+        let mut me = Self {
+            scheme,
+            layout,
+            n_init,
+            m,
+            stages,
+            jac_rows,
+            jac_cols,
+            jac_defect_len,
+            hess_rows: hb.rows,
+            hess_cols: hb.cols,
+            hess_defect_off,
+            hess_defect_slots,
+            hess_sat_slots,
+            scratch: vec![0.0; max_block],
+            g_buf: vec![0.0; m],
+            x_l: vec![0.0; n],
+            x_u: vec![0.0; n],
+            g_l: vec![0.0; m],
+            g_u: vec![0.0; m],
+            z0: vec![0.0; n],
+            rows,
+            spec,
+        };
+        let (mut xl, mut xu, mut gl, mut gu) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+        me.compute_bounds(&mut xl, &mut xu, &mut gl, &mut gu);
+        me.x_l = xl;
+        me.x_u = xu;
+        me.g_l = gl;
+        me.g_u = gu;
+        me.default_guess();
+        Ok(me)
+    }
+
+    /// The problem data.
+    pub fn spec(&self) -> &OcpSpec {
+        &self.spec
+    }
+
+    /// The decision-vector layout.
+    pub fn layout(&self) -> Layout {
+        self.layout
+    }
+
+    /// The defect scheme.
+    pub fn scheme(&self) -> &S {
+        &self.scheme
+    }
+
+    fn context(&self) -> SchemeContext<'_> {
+        SchemeContext {
+            vehicle: &self.spec.vehicle,
+            ds: self.spec.ds(),
+            kappa: &self.spec.kappa,
+            layout: self.layout,
+        }
+    }
+
+    /// Default starting point: straight-line driving at 15 m/s (r = beta = dFz = e = dpsi = 0,
+    /// V_wr = V, zero controls), s_k = k ds, t_k = s_k / 15 m/s; stage variables from the
+    /// scheme.
+    fn default_guess(&mut self) {
+        let ds = self.spec.ds();
+        let xs: Vec<[f64; NX]> = (0..=N)
+            .map(|k| {
+                let s = k as f64 * ds;
+                [0.0, 15.0, 0.0, 15.0, 0.0, 0.0, 0.0, s, s / 15.0]
+            })
+            .collect();
+        let us = vec![[0.0; NU]; N];
+        self.set_initial_guess(&xs, &us);
+    }
+
+    /// Sets the starting point returned by [`Nlp::initial_point`] from physical states
+    /// (N + 1 rows) and controls (N rows). Panics on wrong lengths.
+    pub fn set_initial_guess(&mut self, xs: &[[f64; NX]], us: &[[f64; NU]]) {
+        assert_eq!(xs.len(), N + 1, "need N + 1 states");
+        assert_eq!(us.len(), N, "need N controls");
+        let lay = self.layout;
+        let mut z0 = std::mem::take(&mut self.z0);
+        for (k, x) in xs.iter().enumerate() {
+            z0[lay.x(k, 0)..lay.x(k, 0) + NX].copy_from_slice(&scale_state(x));
+        }
+        for (k, u) in us.iter().enumerate() {
+            z0[lay.u(k, 0)..lay.u(k, 0) + NU].copy_from_slice(&scale_control(u));
+        }
+        {
+            let cx = self.context();
+            for k in 0..N {
+                self.scheme.guess_stage_vars(&cx, k, &mut z0);
+            }
+        }
+        self.z0 = z0;
+    }
+
+    /// Packs physical states (N + 1) and controls (N) into a scaled decision vector `z`.
+    pub fn pack(&self, xs: &[[f64; NX]], us: &[[f64; NU]], z: &mut [f64]) {
+        let lay = self.layout;
+        for (k, x) in xs.iter().enumerate().take(N + 1) {
+            z[lay.x(k, 0)..lay.x(k, 0) + NX].copy_from_slice(&scale_state(x));
+        }
+        for (k, u) in us.iter().enumerate().take(N) {
+            z[lay.u(k, 0)..lay.u(k, 0) + NU].copy_from_slice(&scale_control(u));
+        }
+    }
+
+    /// Physical states (N + 1) and controls (N) of a scaled decision vector, written into
+    /// caller buffers (allocation-free).
+    pub fn trajectory_into(&self, z: &[f64], xs: &mut [[f64; NX]], us: &mut [[f64; NU]]) {
+        let lay = self.layout;
+        for (k, x) in xs.iter_mut().enumerate().take(N + 1) {
+            *x = unscale_state(&z[lay.x(k, 0)..lay.x(k, 0) + NX]);
+        }
+        for (k, u) in us.iter_mut().enumerate().take(N) {
+            *u = unscale_control(&z[lay.u(k, 0)..lay.u(k, 0) + NU]);
+        }
+    }
+
+    /// Physical states (N + 1) and controls (N) of a scaled decision vector.
+    pub fn trajectory_from(&self, z: &[f64]) -> (Vec<[f64; NX]>, Vec<[f64; NU]>) {
+        let mut xs = vec![[0.0; NX]; N + 1];
+        let mut us = vec![[0.0; NU]; N];
+        self.trajectory_into(z, &mut xs, &mut us);
+        (xs, us)
+    }
+
+    /// Largest constraint violation at `z` in the scaled NLP's units: max over equality
+    /// residuals, inequality excesses and variable-bound excesses (allocation-free).
+    pub fn max_violation(&mut self, z: &[f64]) -> f64 {
+        let mut g = std::mem::take(&mut self.g_buf);
+        self.eval_g(z, &mut g);
+        let mut v: f64 = 0.0;
+        for ((gi, lo), hi) in g.iter().zip(&self.g_l).zip(&self.g_u) {
+            v = v.max(lo - gi).max(gi - hi);
+        }
+        for (i, zi) in z.iter().enumerate() {
+            v = v.max(self.x_l[i] - zi).max(zi - self.x_u[i]);
+        }
+        self.g_buf = g;
+        v
+    }
+
+    /// Largest absolute scaled defect residual (dynamics only) at `z`.
+    pub fn max_defect(&mut self, z: &[f64]) -> f64 {
+        let mut g = std::mem::take(&mut self.g_buf);
+        self.eval_g(z, &mut g);
+        let mut v: f64 = 0.0;
+        for st in &self.stages {
+            for gi in &g[st.row_defect..st.row_defect + S::ROWS] {
+                v = v.max(gi.abs());
+            }
+        }
+        self.g_buf = g;
+        v
+    }
+
+    /// Kind and node of constraint row `i`.
+    pub fn describe_row(&self, i: usize) -> RowInfo {
+        self.rows[i]
+    }
+
+    /// Human-readable name of constraint row `i`, e.g. `defect[V]@7`.
+    pub fn row_name(&self, i: usize) -> String {
+        let RowInfo { kind, node } = self.rows[i];
+        match kind {
+            RowKind::Initial { state } => format!("initial[{}]@{node}", STATE_NAMES[state]),
+            RowKind::Defect { row } => format!("defect[{}]@{node}", self.scheme.row_name(row)),
+            RowKind::Friction { at_next } => {
+                format!("friction[{}]@{node}", if at_next { "x_k+1" } else { "x_k" })
+            }
+            RowKind::Saturation { rear } => {
+                format!("saturation[{}]@{node}", if rear { "rear" } else { "front" })
+            }
+            RowKind::RateUpper { control } => {
+                format!("rate_upper[{}]@{node}", CONTROL_NAMES[control])
+            }
+            RowKind::RateLower { control } => {
+                format!("rate_lower[{}]@{node}", CONTROL_NAMES[control])
+            }
+        }
+    }
+
+    /// Names of all constraint rows (diagnostics; allocates).
+    pub fn constraint_names(&self) -> Vec<String> {
+        (0..self.m).map(|i| self.row_name(i)).collect()
+    }
+
+    fn compute_bounds(&self, x_l: &mut [f64], x_u: &mut [f64], g_l: &mut [f64], g_u: &mut [f64]) {
+        let p = &self.spec.vehicle;
+        variable_bounds(&self.layout, &self.spec, x_l, x_u);
+        let init = pc::initial_states(&self.spec);
+        for (r, &i) in init.iter().enumerate() {
+            let t = initial_target(&self.spec, i);
+            g_l[r] = t;
+            g_u[r] = t;
+        }
+        for (k, st) in self.stages.iter().enumerate() {
+            g_l[st.row_defect..st.row_defect + S::ROWS].fill(0.0);
+            g_u[st.row_defect..st.row_defect + S::ROWS].fill(0.0);
+            g_l[st.row_friction..st.row_friction + FRICTION_ROWS].fill(0.0);
+            g_u[st.row_friction..st.row_friction + FRICTION_ROWS].fill(f64::INFINITY);
+            if self.spec.enforce_tire_saturation {
+                g_l[st.row_sat..st.row_sat + SATURATION_ROWS].fill(f64::NEG_INFINITY);
+                g_u[st.row_sat..st.row_sat + SATURATION_ROWS].fill(p.eps_sat / SATURATION_SCALE);
+            }
+            if k >= 1 {
+                rate_row_bounds(
+                    &mut g_l[st.row_rate..st.row_rate + RATE_ROWS],
+                    &mut g_u[st.row_rate..st.row_rate + RATE_ROWS],
+                );
+            }
+        }
+    }
+}
+
+impl<const N: usize> Transcription<ImplicitEuler, N> {
+    /// Builds the implicit-Euler transcription of `spec`.
+    pub fn new(spec: OcpSpec) -> Result<Self, TranscriptionError> {
+        Self::with_scheme(spec, ImplicitEuler)
+    }
+}
+
+impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
+    fn dims(&self) -> NlpDims {
+        NlpDims {
+            n: self.layout.n(),
+            m: self.m,
+            nnz_jac: self.jac_rows.len(),
+            nnz_hess: self.hess_rows.len(),
+        }
+    }
+
+    fn bounds(&self, x_l: &mut [f64], x_u: &mut [f64], g_l: &mut [f64], g_u: &mut [f64]) {
+        x_l.copy_from_slice(&self.x_l);
+        x_u.copy_from_slice(&self.x_u);
+        g_l.copy_from_slice(&self.g_l);
+        g_u.copy_from_slice(&self.g_u);
+    }
+
+    fn initial_point(&self, x: &mut [f64]) {
+        x.copy_from_slice(&self.z0);
+    }
+
+    fn jac_structure(&self, rows: &mut [usize], cols: &mut [usize]) {
+        rows.copy_from_slice(&self.jac_rows);
+        cols.copy_from_slice(&self.jac_cols);
+    }
+
+    fn hess_structure(&self, rows: &mut [usize], cols: &mut [usize]) {
+        rows.copy_from_slice(&self.hess_rows);
+        cols.copy_from_slice(&self.hess_cols);
+    }
+
+    /// Objective t_N / 10 = the scaled t_N.
+    fn eval_f(&mut self, x: &[f64]) -> f64 {
+        x[self.layout.x(N, ix::T)] * X_NOMINAL[ix::T] / OBJECTIVE_SCALE
+    }
+
+    fn eval_grad_f(&mut self, _x: &[f64], grad: &mut [f64]) {
+        grad.fill(0.0);
+        grad[self.layout.x(N, ix::T)] = X_NOMINAL[ix::T] / OBJECTIVE_SCALE;
+    }
+
+    fn eval_g(&mut self, x: &[f64], g: &mut [f64]) {
+        let cx = self.context();
+        let lay = &self.layout;
+        let p = &self.spec.vehicle;
+        for (r, &i) in pc::initial_states(&self.spec).iter().enumerate() {
+            g[r] = x[lay.x(0, i)];
+        }
+        for (k, st) in self.stages.iter().enumerate() {
+            self.scheme
+                .eval(&cx, k, x, &mut g[st.row_defect..st.row_defect + S::ROWS]);
+            friction_eval(p, lay, k, x, &mut g[st.row_friction..]);
+            if self.spec.enforce_tire_saturation {
+                saturation_eval(p, lay, k, x, &mut g[st.row_sat..]);
+            }
+            if k >= 1 {
+                rate_eval(p, lay, k, x, &mut g[st.row_rate..]);
+            }
+        }
+    }
+
+    fn eval_jac_g(&mut self, x: &[f64], vals: &mut [f64]) {
+        let cx = self.context();
+        let lay = &self.layout;
+        let p = &self.spec.vehicle;
+        vals[..self.n_init].fill(1.0);
+        for (k, st) in self.stages.iter().enumerate() {
+            let len = self.jac_defect_len[k];
+            self.scheme
+                .jac(&cx, k, x, &mut vals[st.jac_defect..st.jac_defect + len]);
+            friction_jac(p, &mut vals[st.jac_friction..]);
+            if self.spec.enforce_tire_saturation {
+                saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
+            }
+            if k >= 1 {
+                rate_jac(p, &mut vals[st.jac_rate..]);
+            }
+        }
+    }
+
+    /// Hessian of `obj_factor f + lambda^T g`; f and all rows but the defects and the
+    /// saturation rows are linear, so only those contribute.
+    fn eval_hess(&mut self, x: &[f64], _obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
+        vals.fill(0.0);
+        let cx = SchemeContext {
+            vehicle: &self.spec.vehicle,
+            ds: self.spec.ds(),
+            kappa: &self.spec.kappa,
+            layout: self.layout,
+        };
+        let lay = &self.layout;
+        let p = &self.spec.vehicle;
+        let scratch = &mut self.scratch;
+        for (k, st) in self.stages.iter().enumerate() {
+            let slots =
+                &self.hess_defect_slots[self.hess_defect_off[k]..self.hess_defect_off[k + 1]];
+            self.scheme.hess(
+                &cx,
+                k,
+                x,
+                &lambda[st.row_defect..st.row_defect + S::ROWS],
+                &mut scratch[..slots.len()],
+            );
+            for (&s, &v) in slots.iter().zip(scratch.iter()) {
+                vals[s] += v;
+            }
+            if self.spec.enforce_tire_saturation {
+                let slots =
+                    &self.hess_sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
+                saturation_hess(
+                    p,
+                    lay,
+                    k,
+                    x,
+                    &lambda[st.row_sat..st.row_sat + SATURATION_ROWS],
+                    &mut scratch[..SATURATION_HESS_NNZ],
+                );
+                for (&s, &v) in slots.iter().zip(scratch.iter()) {
+                    vals[s] += v;
+                }
+            }
+        }
+    }
+}

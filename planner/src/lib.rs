@@ -13,5 +13,6 @@ pub mod guess;
 pub mod ip;
 pub mod model;
 pub mod ocp;
+pub mod plot;
 pub mod track;
 pub mod trajectory;

@@ -5,15 +5,18 @@
 //! our own interior-point solver and exact derivatives. Every node of the OCP then gets
 //! that pair; e = dpsi = 0, s_k = k ds and t_k = s_k / V (paper Sec. V).
 
-use nalgebra::SVector;
-use num_dual::{hessian, Dual2SVec64, DualNum};
+use nalgebra::{SMatrix, SVector};
+use num_dual::{hessian, jacobian, Dual2SVec64, DualNum, DualSVec64};
 
-use crate::ip::{Nlp, NlpDims, Settings, SolveInfo, Solver, Status};
+use crate::ip::{Nlp, NlpDims};
 use crate::model::dynamics::time_derivatives;
 use crate::model::{iu, ix, VehicleParams, NU, NX};
 
 /// Unknowns of eq. (8): [r, V, beta, V_wr, dFz, delta, T_comb, T_bf].
 const NG: usize = 8;
+
+/// Nominal magnitudes of the unknowns: the NLP works in z / nominal (as the OCP does).
+const Z_NOMINAL: [f64; NG] = [1.0, 10.0, 0.1, 10.0, 1000.0, 0.1, 1000.0, 1000.0];
 
 /// Nominal magnitudes dividing each residual of eq. (8) so they weigh alike (the zero-cost
 /// minimizers, which are what eq. 8 asks for, do not depend on them).
@@ -55,7 +58,7 @@ pub struct Equilibrium {
     pub u: [f64; NU],
     /// Remaining cost of eq. (8) (zero at a true equilibrium).
     pub cost: f64,
-    /// Solver status of the least-squares problem.
+    /// Status of the least-squares solve.
     pub status: &'static str,
     /// Iterations taken.
     pub iterations: usize,
@@ -64,9 +67,6 @@ pub struct Equilibrium {
 /// Could not compute an equilibrium guess.
 #[derive(Debug, thiserror::Error)]
 pub enum GuessError {
-    /// The solver could not be set up.
-    #[error("equilibrium guess: solver setup failed: {0}")]
-    Setup(#[from] crate::ip::SetupError),
     /// The least-squares problem did not converge to zero cost.
     #[error("equilibrium guess did not converge: status {status}, cost {cost:e}")]
     NotConverged {
@@ -97,8 +97,40 @@ impl EquilibriumProblem {
         }
     }
 
-    fn cost<D: DualNum<Primitive = f64> + Copy>(&self, z: &[D; NG]) -> D {
+    /// Residuals of eq. (8) and their exact Jacobian at scaled unknowns `z`.
+    pub fn residuals_jacobian(&self, z: &[f64; NG]) -> (SVector<f64, 6>, SMatrix<f64, 6, NG>) {
+        let zv = SVector::<f64, NG>::from_column_slice(z);
+        jacobian(
+            |v: SVector<DualSVec64<NG>, NG>| {
+                let a: [DualSVec64<NG>; NG] = std::array::from_fn(|i| v[i]);
+                SVector::<DualSVec64<NG>, 6>::from(self.residuals(&a))
+            },
+            &zv,
+        )
+    }
+
+    /// Scaled residuals of eq. (8): the five dynamic rates and V - V_wr.
+    fn residuals<D: DualNum<Primitive = f64> + Copy>(&self, zs: &[D; NG]) -> [D; 6] {
         let zero = D::from(0.0);
+        let z: [D; NG] = std::array::from_fn(|i| zs[i] * Z_NOMINAL[i]);
+        let x = [z[0], z[1], z[2], z[3], z[4], zero, zero, zero, zero];
+        let u = [z[5], z[6], z[7]];
+        let d = time_derivatives(&self.vehicle, &x, &u, 0.0);
+        let res = [
+            d.dxdt[ix::R],
+            d.dxdt[ix::V],
+            d.dxdt[ix::BETA],
+            d.dxdt[ix::VWR],
+            d.dxdt[ix::DFZ],
+            x[ix::V] - x[ix::VWR],
+        ];
+        std::array::from_fn(|i| res[i] / RESIDUAL_SCALE[i])
+    }
+
+    /// Cost of eq. (8) at scaled unknowns `zs` (physical = zs * nominal).
+    fn cost<D: DualNum<Primitive = f64> + Copy>(&self, zs: &[D; NG]) -> D {
+        let zero = D::from(0.0);
+        let z: [D; NG] = std::array::from_fn(|i| zs[i] * Z_NOMINAL[i]);
         let x = [z[0], z[1], z[2], z[3], z[4], zero, zero, zero, zero];
         let u = [z[5], z[6], z[7]];
         let d = time_derivatives(&self.vehicle, &x, &u, 0.0);
@@ -151,9 +183,15 @@ impl Nlp for EquilibriumProblem {
         (x_l[5 + iu::DELTA], x_u[5 + iu::DELTA]) = (-p.delta_max, p.delta_max);
         (x_l[5 + iu::TCOMB], x_u[5 + iu::TCOMB]) = (p.t_comb_min, p.t_comb_max);
         (x_l[5 + iu::TBF], x_u[5 + iu::TBF]) = (p.t_bf_min, p.t_bf_max);
+        for i in 0..NG {
+            x_l[i] /= Z_NOMINAL[i];
+            x_u[i] /= Z_NOMINAL[i];
+        }
     }
     fn initial_point(&self, x: &mut [f64]) {
-        x.copy_from_slice(&self.start);
+        for i in 0..NG {
+            x[i] = self.start[i] / Z_NOMINAL[i];
+        }
     }
     fn jac_structure(&self, _: &mut [usize], _: &mut [usize]) {}
     fn hess_structure(&self, rows: &mut [usize], cols: &mut [usize]) {
@@ -189,43 +227,104 @@ impl Nlp for EquilibriumProblem {
 }
 
 /// Solves eq. (8) for this vehicle (speed bounds and start speed as in
-/// [`EquilibriumProblem::new`]). Allocates; compute once per vehicle and cache it.
+/// [`EquilibriumProblem::new`]) by projected Levenberg-Marquardt on the box, with exact
+/// Jacobians from forward-mode duals. The zero-residual minimizers of eq. (8) form a
+/// continuum (any straight-line speed) and sit on the bound T_bf = 0, a degenerate case
+/// for an interior-point method; projected LM converges there in a few iterations.
+/// Deterministic, at most `MAX_ITER` iterations. Cheap; compute once per vehicle.
 pub fn equilibrium(
     vehicle: &VehicleParams,
     v_min: f64,
     v_max: f64,
     v_start: f64,
-) -> Result<(Equilibrium, SolveInfo), GuessError> {
-    let mut prob = EquilibriumProblem::new(*vehicle, v_min, v_max, v_start);
-    let settings = Settings {
-        tol: 1e-10,
-        constr_viol_tol: 1e-10,
-        max_iter: 200,
-        ..Settings::default()
+) -> Result<Equilibrium, GuessError> {
+    const MAX_ITER: usize = 200;
+    let prob = EquilibriumProblem::new(*vehicle, v_min, v_max, v_start);
+    let mut lo = [0.0; NG];
+    let mut hi = [0.0; NG];
+    prob.bounds(&mut lo, &mut hi, &mut [], &mut []);
+    // r is fixed at 0 (the paper's 0- <= r <= 0+).
+    lo[0] = 0.0;
+    hi[0] = 0.0;
+    let mut z = [0.0; NG];
+    prob.initial_point(&mut z);
+    z[0] = 0.0;
+    let project = |z: &mut [f64; NG]| {
+        for i in 0..NG {
+            z[i] = z[i].clamp(lo[i], hi[i]);
+        }
     };
-    let mut solver = Solver::new(&prob, settings)?;
-    let info = solver.solve(&mut prob);
-    let z = solver.x();
-    let cost = info.objective;
-    if !matches!(info.status, Status::Optimal | Status::Acceptable) || cost > 1e-8 {
-        return Err(GuessError::NotConverged {
-            status: info.status.name(),
-            cost,
-        });
+    project(&mut z);
+    let mut lambda = 1e-3;
+    let (mut res, mut jac) = prob.residuals_jacobian(&z);
+    let mut cost = 0.5 * res.norm_squared();
+    let mut iterations = 0;
+    while iterations < MAX_ITER && cost > 1e-24 {
+        iterations += 1;
+        // Free variables: not at a bound with the gradient pushing outwards.
+        let grad = jac.transpose() * res;
+        let mut free = [true; NG];
+        for i in 0..NG {
+            let at_lo = z[i] <= lo[i] && grad[i] > 0.0;
+            let at_hi = z[i] >= hi[i] && grad[i] < 0.0;
+            free[i] = !(at_lo || at_hi) && lo[i] < hi[i];
+        }
+        let mut a = jac.transpose() * jac;
+        let mut b = -grad;
+        for i in 0..NG {
+            if !free[i] {
+                for j in 0..NG {
+                    a[(i, j)] = 0.0;
+                    a[(j, i)] = 0.0;
+                }
+                a[(i, i)] = 1.0;
+                b[i] = 0.0;
+            } else {
+                a[(i, i)] += lambda * (1.0 + a[(i, i)]);
+            }
+        }
+        let Some(d) = a.cholesky().map(|c| c.solve(&b)) else {
+            lambda *= 10.0;
+            continue;
+        };
+        let mut trial = z;
+        for i in 0..NG {
+            trial[i] += d[i];
+        }
+        project(&mut trial);
+        let (r_t, j_t) = prob.residuals_jacobian(&trial);
+        let c_t = 0.5 * r_t.norm_squared();
+        if c_t.is_finite() && c_t < cost {
+            z = trial;
+            res = r_t;
+            jac = j_t;
+            cost = c_t;
+            lambda = (lambda / 10.0).max(1e-12);
+        } else {
+            lambda *= 10.0;
+            if lambda > 1e12 {
+                break;
+            }
+        }
     }
+    let status = if cost <= 1e-16 {
+        "optimal"
+    } else {
+        "not_converged"
+    };
+    if cost > 1e-16 {
+        return Err(GuessError::NotConverged { status, cost });
+    }
+    let zp: [f64; NG] = std::array::from_fn(|i| z[i] * Z_NOMINAL[i]);
     let mut x = [0.0; NX];
-    x[..5].copy_from_slice(&z[..5]);
-    let u = [z[5], z[6], z[7]];
-    Ok((
-        Equilibrium {
-            x,
-            u,
-            cost,
-            status: info.status.name(),
-            iterations: info.iterations,
-        },
-        info,
-    ))
+    x[..5].copy_from_slice(&zp[..5]);
+    Ok(Equilibrium {
+        x,
+        u: [zp[5], zp[6], zp[7]],
+        cost,
+        status,
+        iterations,
+    })
 }
 
 /// Fills node states and controls (physical units) from the equilibrium pair: dynamic

@@ -163,6 +163,7 @@ fn hs071_every_barrier_rule() {
         for (a, b) in x.iter().zip(want) {
             assert!((a - b).abs() < 1e-4, "{rule:?}: x = {x:?}");
         }
+        println!("{rule:?}: {} iterations", info.iterations);
         assert!(
             info.iterations < 60,
             "{rule:?}: {} iterations",

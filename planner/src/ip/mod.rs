@@ -15,5 +15,5 @@ pub mod workspace;
 
 pub use info::{IterLog, PhaseTimes, SolveInfo, Status, StepKind};
 pub use nlp::{Nlp, NlpDims};
-pub use settings::{BarrierRule, Settings};
+pub use settings::{BarrierRule, Globalization, Settings};
 pub use solver::{SetupError, Solver};

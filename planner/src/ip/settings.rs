@@ -8,13 +8,13 @@ use serde::Deserialize;
 #[serde(rename_all = "lowercase")]
 pub enum BarrierRule {
     /// Fiacco-McCormick: fixed mu until the barrier subproblem is solved, then decrease
-    /// (Waechter & Biegler 2006, Sec. 2.1).
+    /// (Waechter & Biegler 2006, Sec. 2.1). The default: the most robust rule here.
+    #[default]
     Monotone,
     /// Mehrotra predictor-corrector without safeguards (Nocedal, Waechter, Waltz 2009).
     Fullmpc,
     /// Mehrotra predictor-corrector whose corrector is only taken when it does not shorten
     /// the step (KNITRO's "dampmpc"; Byrd, Nocedal, Waltz 2006).
-    #[default]
     Dampmpc,
     /// LOQO rule: mu from the spread of the complementarity products (Vanderbei-Shanno).
     Loqo,
@@ -51,6 +51,17 @@ impl BarrierRule {
     ];
 }
 
+/// How steps are accepted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Globalization {
+    /// Filter line search on (violation, barrier objective) (Waechter & Biegler 2006).
+    #[default]
+    Filter,
+    /// Armijo line search on the l2 merit function of paper eq. (5).
+    Merit,
+}
+
 /// Tolerances, caps and algorithm choices of the interior-point solver.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -81,6 +92,10 @@ pub struct Settings {
     pub max_restoration_steps: usize,
     /// Barrier update rule.
     pub barrier: BarrierRule,
+    /// Step acceptance.
+    pub globalization: Globalization,
+    /// Adaptive rules keep mu >= this factor times min(1, KKT error).
+    pub mu_floor_factor: f64,
     /// Initial barrier parameter (monotone rule).
     pub mu_init: f64,
     /// Smallest barrier parameter.
@@ -124,7 +139,9 @@ impl Default for Settings {
             max_inertia_corrections: 12,
             max_ls_failures: 6,
             max_restoration_steps: 200,
-            barrier: BarrierRule::Dampmpc,
+            barrier: BarrierRule::Monotone,
+            globalization: Globalization::Filter,
+            mu_floor_factor: 1e-2,
             mu_init: 0.1,
             mu_min: 1e-11,
             bound_push: 1e-2,
@@ -176,6 +193,7 @@ impl Settings {
             ("delta_w_init", self.delta_w_init),
             ("delta_w_max", self.delta_w_max),
             ("infeas_stat_tol", self.infeas_stat_tol),
+            ("mu_floor_factor", self.mu_floor_factor),
         ];
         for (field, v) in pos {
             if v.is_nan() || v <= 0.0 || (v.is_infinite() && field != "max_time_s") {

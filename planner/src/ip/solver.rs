@@ -9,7 +9,7 @@ use super::info::{IterLog, PhaseTimes, SolveInfo, Status, StepKind};
 use super::kkt::{KktError, KktSolver, KktValues, SparseLdlt};
 use super::nlp::Nlp;
 use super::residuals::{self, compute_errors, Errors};
-use super::settings::{BarrierRule, Settings};
+use super::settings::{BarrierRule, Globalization, Settings};
 use super::workspace::Workspace;
 
 /// Error constructing a solver.
@@ -135,6 +135,17 @@ impl<K: KktSolver> Solver<K> {
             info.times.total = t0.elapsed().as_secs_f64();
             return info;
         }
+        {
+            let te = Instant::now();
+            let ws = &mut self.ws;
+            nlp.eval_grad_f(&ws.w[..ws.n], &mut ws.grad);
+            nlp.eval_jac_g(&ws.w[..ws.n], &mut ws.jac);
+            times.evaluation += te.elapsed().as_secs_f64();
+            let tf = Instant::now();
+            self.least_squares_multipliers();
+            info.factorizations += 1;
+            times.factorization += tf.elapsed().as_secs_f64();
+        }
 
         let mut mu = match s.barrier {
             BarrierRule::Monotone => s.mu_init,
@@ -146,6 +157,16 @@ impl<K: KktSolver> Solver<K> {
         // IPOPT-style cap on adaptive mu: 1e3 times the initial average complementarity.
         let mu_max = 1e3 * mu.max(s.mu_init);
         let mut nu = s.penalty_init;
+        // Adaptive rules run in "free mode" and fall back to the monotone rule when an
+        // iterate is not acceptable to the (objective, violation) progress filter
+        // (IPOPT's obj-constr-filter safeguard, Nocedal-Waechter-Waltz 2009).
+        let mut free_mode = s.barrier != BarrierRule::Monotone;
+        self.ws.progress.clear();
+        self.ws.filter.clear();
+        let theta0 = norm1(&self.ws.c);
+        let theta_max = 1e4 * theta0.max(1.0);
+        let theta_min = 1e-4 * theta0.max(1.0);
+        let mut mu_prev = f64::NAN;
         let mut ls_failures = 0usize;
         let mut force_reg = false;
         let mut best_score = (f64::INFINITY, f64::INFINITY);
@@ -154,7 +175,7 @@ impl<K: KktSolver> Solver<K> {
         let mut tiny_steps = 0usize;
         // Progress watch on ||c||: no 1 % decrease in `STALL_ITERS` iterations while
         // infeasible also hands over to restoration.
-        const STALL_ITERS: usize = 15;
+        const STALL_ITERS: usize = 30;
         let mut theta_ref = f64::INFINITY;
         let mut stalled = 0usize;
         let mut iter = 0usize;
@@ -268,11 +289,17 @@ impl<K: KktSolver> Solver<K> {
                 break;
             }
 
-            // Monotone rule: decrease mu once the barrier subproblem is solved.
-            if s.barrier == BarrierRule::Monotone {
+            // Monotone rule: decrease mu once the barrier subproblem is solved; an adaptive
+            // rule in monotone fallback returns to free mode at that point.
+            if !free_mode {
                 let mut e = err;
                 for _ in 0..8 {
                     if e.overall_mu() > 10.0 * mu || mu <= s.mu_min {
+                        break;
+                    }
+                    if s.barrier != BarrierRule::Monotone {
+                        free_mode = true;
+                        self.ws.progress.clear();
                         break;
                     }
                     mu = barrier::monotone_next(mu, s.tol, s.mu_min);
@@ -313,23 +340,42 @@ impl<K: KktSolver> Solver<K> {
 
             // Direction.
             let ts = Instant::now();
-            let (mu_step, kind) = self.direction(mu, mu_max, fact.delta_w, &err);
+            let rule = if free_mode {
+                s.barrier
+            } else {
+                BarrierRule::Monotone
+            };
+            let (mu_step, kind) = self.direction(rule, mu, mu_max, fact.delta_w, &err);
             times.solve += ts.elapsed().as_secs_f64();
-            if s.barrier != BarrierRule::Monotone {
-                mu = mu_step;
+            mu = mu_step;
+            if mu != mu_prev {
+                // A new barrier problem: its filter starts empty.
+                self.ws.filter.clear();
+                mu_prev = mu;
             }
+            let (theta_cur, f_cur) = (norm1(&self.ws.c), self.ws.f);
 
             // Line search on the merit function.
             let tl = Instant::now();
             let mut teval = 0.0;
-            let outcome = self.line_search(
-                nlp,
-                mu,
-                &mut nu,
-                fact.delta_w,
-                &mut teval,
-                &mut info.evaluations,
-            );
+            let outcome = match s.globalization {
+                Globalization::Filter => self.filter_line_search(
+                    nlp,
+                    mu,
+                    fact.delta_w,
+                    (theta_min, theta_max),
+                    &mut teval,
+                    &mut info.evaluations,
+                ),
+                Globalization::Merit => self.line_search(
+                    nlp,
+                    mu,
+                    &mut nu,
+                    fact.delta_w,
+                    &mut teval,
+                    &mut info.evaluations,
+                ),
+            };
             times.evaluation += teval;
             times.line_search += tl.elapsed().as_secs_f64() - teval;
 
@@ -337,6 +383,23 @@ impl<K: KktSolver> Solver<K> {
                 Some((alpha, bt, soc)) => {
                     ls_failures = 0;
                     force_reg = false;
+                    if free_mode {
+                        // Progress safeguard of free mode.
+                        let (theta_new, f_new) = (norm1(&self.ws.c), self.ws.f);
+                        let gamma = 1e-5;
+                        let ok = self.ws.progress.iter().all(|&(th, f)| {
+                            theta_new < (1.0 - gamma) * th || f_new < f - gamma * th
+                        });
+                        if ok {
+                            if self.ws.progress.len() < self.ws.progress.capacity() {
+                                self.ws.progress.push((theta_cur, f_cur));
+                            }
+                        } else {
+                            free_mode = false;
+                            let e = compute_errors(&mut self.ws, mu);
+                            mu = (0.8 * e.mu_avg).clamp(s.mu_min, mu_max);
+                        }
+                    }
                     // Stalling while infeasible: hand over to restoration.
                     tiny_steps = if alpha < 1e-4 { tiny_steps + 1 } else { 0 };
                     let theta = norm2(&self.ws.c);
@@ -667,6 +730,54 @@ impl<K: KktSolver> Solver<K> {
         Err(count)
     }
 
+    /// Least-squares estimate of y (IPOPT's default initialization): minimize
+    /// ||grad f + A^T y - z_l + z_u|| by solving [[I, A^T], [A, 0]] [d; y] = [-(grad - z); 0].
+    /// Kept only if ||y||_inf <= 1e3; otherwise y stays zero.
+    fn least_squares_multipliers(&mut self) {
+        const Y_MAX: f64 = 1e3;
+        let (n, m) = (self.ws.n, self.ws.m);
+        if m == 0 {
+            return;
+        }
+        {
+            let ws = &mut self.ws;
+            ws.y.iter_mut().for_each(|v| *v = 0.0);
+            ws.sigma.iter_mut().for_each(|v| *v = 1.0);
+            ws.hess.iter_mut().for_each(|v| *v = 0.0);
+            for j in 0..n + m {
+                // Targets chosen so that tgt/slack = z: the rhs becomes -(grad - z_l + z_u).
+                ws.tgt_l[j] = if ws.has_lo[j] {
+                    ws.zl[j] * (ws.w[j] - ws.lo[j])
+                } else {
+                    0.0
+                };
+                ws.tgt_u[j] = if ws.has_hi[j] {
+                    ws.zu[j] * (ws.hi[j] - ws.w[j])
+                } else {
+                    0.0
+                };
+            }
+            ws.tmp_m.iter_mut().for_each(|v| *v = 0.0);
+        }
+        self.fill_diagonals(0.0, self.settings.delta_c_min.max(1e-8));
+        let ws = &self.ws;
+        let res = self.kkt.factorize(&KktValues {
+            hess: &ws.hess,
+            jac: &ws.jac,
+            primal_diag: &ws.primal_diag,
+            dual_diag: &ws.dual_diag,
+        });
+        if res.is_err() {
+            return;
+        }
+        self.solve_direction(0.0, Some(()));
+        let ws = &mut self.ws;
+        let y_max = ws.dy.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        if y_max.is_finite() && y_max <= Y_MAX {
+            ws.y.copy_from_slice(&ws.dy);
+        }
+    }
+
     /// Barrier Hessian Sigma = z_l/(w - l) + z_u/(u - w).
     fn compute_sigma(&mut self) {
         let ws = &mut self.ws;
@@ -830,9 +941,16 @@ impl<K: KktSolver> Solver<K> {
     }
 
     /// Computes the step (dw, dy, dzl, dzu) for the current rule; returns mu and its kind.
-    fn direction(&mut self, mu: f64, mu_max: f64, delta_w: f64, err: &Errors) -> (f64, StepKind) {
+    fn direction(
+        &mut self,
+        rule: BarrierRule,
+        mu: f64,
+        mu_max: f64,
+        delta_w: f64,
+        err: &Errors,
+    ) -> (f64, StepKind) {
         let s = self.settings;
-        match s.barrier {
+        match rule {
             BarrierRule::Monotone => {
                 self.set_targets(mu, false);
                 self.solve_direction(delta_w, None);
@@ -854,7 +972,8 @@ impl<K: KktSolver> Solver<K> {
                 let mu_avg = err.mu_avg.max(s.mu_min);
                 let sigma = (mu_aff / mu_avg).clamp(0.0, 1.0).powi(3);
                 // Keep mu from collapsing while far from feasibility.
-                let floor = s.mu_min.max(1e-2 * err.inf_pr.min(1.0) * mu_avg);
+                let kkt = err.inf_pr.max(err.inf_du / err.s_d).min(1.0);
+                let floor = s.mu_min.max(s.mu_floor_factor * kkt);
                 let mu_new = (sigma * mu_avg).max(floor).min(mu_max);
                 {
                     let ws = &mut self.ws;
@@ -862,7 +981,7 @@ impl<K: KktSolver> Solver<K> {
                     ws.dzl_aff.copy_from_slice(&ws.dzl);
                     ws.dzu_aff.copy_from_slice(&ws.dzu);
                 }
-                if s.barrier == BarrierRule::Dampmpc {
+                if rule == BarrierRule::Dampmpc {
                     // Centering step first, then the corrector only if it is not shorter.
                     self.set_targets(mu_new, false);
                     self.solve_direction(delta_w, None);
@@ -1026,6 +1145,188 @@ impl<K: KktSolver> Solver<K> {
             }
         }
         f - mu * b
+    }
+
+    /// Filter line search on (theta = ||c||_1, barrier objective) with second-order
+    /// corrections (Waechter & Biegler 2006, Sec. 2.3-2.4). Returns (alpha, backtracks,
+    /// used a second-order correction), or None when alpha fell below alpha_min.
+    #[allow(clippy::too_many_arguments)]
+    fn filter_line_search<P: Nlp + ?Sized>(
+        &mut self,
+        nlp: &mut P,
+        mu: f64,
+        delta_w: f64,
+        (theta_min, theta_max): (f64, f64),
+        teval: &mut f64,
+        evals: &mut usize,
+    ) -> Option<(f64, usize, bool)> {
+        const GAMMA_THETA: f64 = 1e-5;
+        const GAMMA_PHI: f64 = 1e-8;
+        const S_THETA: f64 = 1.1;
+        const S_PHI: f64 = 2.3;
+        const DELTA: f64 = 1.0;
+        const MAX_SOC: usize = 4;
+        let s = self.settings;
+        let (n, m) = (self.ws.n, self.ws.m);
+        let tau = (1.0 - mu).max(s.tau_min);
+        let (alpha_max, alpha_z) = self.max_steps(tau);
+        let grad_d = self.barrier_grad_dot_dw(mu);
+        let theta = norm1(&self.ws.c);
+        let phi = self.barrier_value(&self.ws.w, self.ws.f, mu);
+        let alpha_min = {
+            let g = 0.05;
+            if grad_d < 0.0 {
+                g * GAMMA_THETA
+                    .min(GAMMA_PHI * theta / -grad_d)
+                    .min(DELTA * theta.powf(S_THETA) / (-grad_d).powf(S_PHI))
+            } else {
+                g * GAMMA_THETA
+            }
+        };
+        let acceptable = |ws: &Workspace, th: f64, ph: f64| -> bool {
+            th <= theta_max && ws.filter.iter().all(|&(tf, pf)| th < tf || ph < pf)
+        };
+        let mut alpha = alpha_max;
+        for bt in 0..s.max_backtracks {
+            if alpha < alpha_min && bt > 0 {
+                break;
+            }
+            {
+                let ws = &mut self.ws;
+                for j in 0..n + m {
+                    ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
+                }
+            }
+            let Some((f_t, theta_t, phi_t)) = self.eval_trial(nlp, mu, teval, evals) else {
+                alpha *= 0.5;
+                continue;
+            };
+            let switching =
+                grad_d < 0.0 && alpha * (-grad_d).powf(S_PHI) > DELTA * theta.powf(S_THETA);
+            let armijo = phi_t <= phi + 1e-8 * alpha * grad_d;
+            let f_type = theta <= theta_min && switching;
+            let ok = if f_type {
+                armijo
+            } else {
+                theta_t <= (1.0 - GAMMA_THETA) * theta || phi_t <= phi - GAMMA_PHI * theta
+            };
+            if ok && acceptable(&self.ws, theta_t, phi_t) {
+                if !(switching && armijo) {
+                    self.augment_filter((1.0 - GAMMA_THETA) * theta, phi - GAMMA_PHI * theta);
+                }
+                self.accept(f_t, alpha, alpha_z, mu, true);
+                return Some((alpha, bt, false));
+            }
+            // Second-order corrections on the first trial when the violation grew.
+            if bt == 0 && theta_t >= theta && s.second_order_correction {
+                {
+                    let ws = &mut self.ws;
+                    for i in 0..m {
+                        ws.tmp_m[i] = alpha * ws.c[i] + ws.c_t[i];
+                    }
+                }
+                let mut theta_soc_prev = theta;
+                let mut accepted = false;
+                for _ in 0..MAX_SOC {
+                    self.solve_direction(delta_w, Some(()));
+                    let (ap, az) = self.max_steps(tau);
+                    {
+                        let ws = &mut self.ws;
+                        for j in 0..n + m {
+                            ws.w_t[j] = ws.w[j] + ap * ws.dw[j];
+                        }
+                    }
+                    let Some((f_s, theta_s, phi_s)) = self.eval_trial(nlp, mu, teval, evals) else {
+                        break;
+                    };
+                    let ok = if f_type {
+                        phi_s <= phi + 1e-8 * alpha * grad_d
+                    } else {
+                        theta_s <= (1.0 - GAMMA_THETA) * theta || phi_s <= phi - GAMMA_PHI * theta
+                    };
+                    if ok && acceptable(&self.ws, theta_s, phi_s) {
+                        if !f_type {
+                            self.augment_filter(
+                                (1.0 - GAMMA_THETA) * theta,
+                                phi - GAMMA_PHI * theta,
+                            );
+                        }
+                        self.accept(f_s, ap, az, mu, true);
+                        accepted = true;
+                        alpha = ap;
+                        break;
+                    }
+                    if theta_s > 0.99 * theta_soc_prev {
+                        break;
+                    }
+                    theta_soc_prev = theta_s;
+                    let ws = &mut self.ws;
+                    for i in 0..m {
+                        ws.tmp_m[i] = ap * ws.tmp_m[i] + ws.c_t[i];
+                    }
+                }
+                if accepted {
+                    return Some((alpha, bt, true));
+                }
+                self.restore_direction(delta_w);
+            }
+            alpha *= 0.5;
+        }
+        None
+    }
+
+    /// Evaluates f and c at w_t; returns (f, ||c||_1, barrier objective) when finite.
+    fn eval_trial<P: Nlp + ?Sized>(
+        &mut self,
+        nlp: &mut P,
+        mu: f64,
+        teval: &mut f64,
+        evals: &mut usize,
+    ) -> Option<(f64, f64, f64)> {
+        let n = self.ws.n;
+        let te = Instant::now();
+        let f_t = nlp.eval_f(&self.ws.w_t[..n]);
+        {
+            let ws = &mut self.ws;
+            nlp.eval_g(&ws.w_t[..n], &mut ws.g_t);
+        }
+        *teval += te.elapsed().as_secs_f64();
+        *evals += 1;
+        if !f_t.is_finite() || self.ws.g_t.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let ws = &mut self.ws;
+        residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g_t, &ws.w_t, &mut ws.c_t);
+        let theta_t = norm1(&self.ws.c_t);
+        let phi_t = self.barrier_value(&self.ws.w_t, f_t, mu);
+        phi_t.is_finite().then_some((f_t, theta_t, phi_t))
+    }
+
+    fn augment_filter(&mut self, theta: f64, phi: f64) {
+        let f = &mut self.ws.filter;
+        // Drop entries the new one dominates, then add it (capacity permitting).
+        f.retain(|&(t, p)| !(t >= theta && p >= phi));
+        if f.len() < f.capacity() {
+            f.push((theta, phi));
+        }
+    }
+
+    /// grad(barrier objective) . dw at the current point.
+    fn barrier_grad_dot_dw(&self, mu: f64) -> f64 {
+        let ws = &self.ws;
+        let n = ws.n;
+        let mut gd = 0.0;
+        for j in 0..n + ws.m {
+            let mut gj = if j < n { ws.grad[j] } else { 0.0 };
+            if ws.has_lo[j] {
+                gj -= mu / (ws.w[j] - ws.lo[j]);
+            }
+            if ws.has_hi[j] {
+                gj += mu / (ws.hi[j] - ws.w[j]);
+            }
+            gd += gj * ws.dw[j];
+        }
+        gd
     }
 
     /// Backtracking line search on phi_nu = barrier objective + nu ||c||_2 (paper eq. 5).
@@ -1259,6 +1560,10 @@ impl Restoration {
     fn new(theta_entry: f64, mu: f64) -> Self {
         Self { theta_entry, mu }
     }
+}
+
+fn norm1(v: &[f64]) -> f64 {
+    v.iter().map(|x| x.abs()).sum()
 }
 
 fn norm2(v: &[f64]) -> f64 {

@@ -118,6 +118,10 @@ pub struct Workspace {
 
     /// Iteration log (capacity max_iter + 2, never grows).
     pub log: Vec<IterLog>,
+    /// Line-search filter of (violation, barrier objective) pairs.
+    pub filter: Vec<(f64, f64)>,
+    /// Free-mode progress filter of (violation, objective) pairs.
+    pub progress: Vec<(f64, f64)>,
 }
 
 impl Workspace {
@@ -189,6 +193,8 @@ impl Workspace {
             best_zl: v(nw),
             best_zu: v(nw),
             log: Vec::with_capacity(log_capacity),
+            filter: Vec::with_capacity(log_capacity),
+            progress: Vec::with_capacity(log_capacity),
         }
     }
 

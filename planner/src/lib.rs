@@ -13,6 +13,7 @@ pub mod guess;
 pub mod ip;
 pub mod model;
 pub mod ocp;
+pub mod plan;
 pub mod plot;
 pub mod track;
 pub mod trajectory;

@@ -1,2 +1,302 @@
 //! `trajopt`: command-line front end of the planner.
-fn main() {}
+//!
+//! `trajopt solve` solves one scenario (the oval by default) from the equilibrium or zero
+//! guess, prints a summary (stderr with `--json`, whose single JSON object goes to stdout),
+//! and writes the trajectory as CSV and a PNG figure. Exit code 0 when the solve ran,
+//! whatever its status; 2 on bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::guess::GuessKind;
+use planner::ip::{BarrierRule, SolveInfo};
+use planner::plan::Planner;
+
+/// The horizon every shipped scenario uses (paper: N = 100).
+const N: usize = 100;
+
+#[derive(Parser, Debug)]
+#[command(name = "trajopt", version, about = "Reference-free minimum-time trajectory optimizer")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Solve one scenario (default: the oval) and write CSV + PNG.
+    Solve(SolveArgs),
+    /// Compute and print the equilibrium initial guess of a vehicle (paper eq. 8).
+    Guess(GuessArgs),
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum OnOff {
+    On,
+    Off,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum GuessArg {
+    Equilibrium,
+    Zero,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum BarrierArg {
+    Monotone,
+    Dampmpc,
+    Fullmpc,
+    Loqo,
+}
+
+#[derive(clap::Args, Debug)]
+struct SolveArgs {
+    /// Scenario file (paths inside resolve against its data root).
+    #[arg(long, default_value = "config/scenarios/oval.toml")]
+    scenario: PathBuf,
+    /// Segment or scenario name inside a multi-entry file (e.g. S01, critical).
+    #[arg(long)]
+    segment: Option<String>,
+    /// Vehicle file.
+    #[arg(long, default_value = "config/vehicles/lc500.toml")]
+    vehicle: PathBuf,
+    /// Solver settings file.
+    #[arg(long, default_value = "config/solver.toml")]
+    solver: PathBuf,
+    /// Initial guess.
+    #[arg(long, value_enum, default_value = "equilibrium")]
+    guess: GuessArg,
+    /// Barrier parameter rule (overrides the solver file).
+    #[arg(long, value_enum)]
+    barrier: Option<BarrierArg>,
+    /// Tire saturation constraints (overrides the scenario).
+    #[arg(long, value_enum)]
+    tire_saturation: Option<OnOff>,
+    /// Solve K times and report the median solve_ms.
+    #[arg(long, default_value_t = 1)]
+    repeat: usize,
+    /// Print exactly one JSON object on stdout (summary goes to stderr).
+    #[arg(long)]
+    json: bool,
+    /// Folder for the CSV and PNG outputs.
+    #[arg(long, default_value = "out")]
+    out_dir: PathBuf,
+    /// Do not write the CSV and PNG files.
+    #[arg(long)]
+    no_output: bool,
+}
+
+#[derive(clap::Args, Debug)]
+struct GuessArgs {
+    /// Vehicle file.
+    #[arg(long, default_value = "config/vehicles/lc500.toml")]
+    vehicle: PathBuf,
+    /// Speed bounds and start speed [m/s].
+    #[arg(long, default_value_t = 5.0)]
+    v_min: f64,
+    /// Upper speed bound [m/s].
+    #[arg(long, default_value_t = 40.0)]
+    v_max: f64,
+    /// Start speed of the least-squares problem [m/s].
+    #[arg(long, default_value_t = planner::plan::DEFAULT_GUESS_SPEED)]
+    v_start: f64,
+    /// JSON output.
+    #[arg(long)]
+    json: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    // No subcommand: solve the built-in default scenario (the oval).
+    let command = match cli.command {
+        Some(c) => c,
+        None => match Cli::parse_from(["trajopt", "solve"]).command {
+            Some(c) => c,
+            None => return ExitCode::from(2),
+        },
+    };
+    let result = match command {
+        Command::Solve(args) => solve(args),
+        Command::Guess(args) => guess(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(msg) => {
+            eprintln!("trajopt: error: {msg}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// A default path relative to the working directory, or else to the repository this
+/// binary was built from (so `trajopt` works from any folder of a clone).
+fn resolve(path: &Path) -> PathBuf {
+    if path.exists() || path.is_absolute() {
+        return path.to_path_buf();
+    }
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path);
+    if repo.exists() {
+        repo
+    } else {
+        path.to_path_buf()
+    }
+}
+
+fn solve(args: SolveArgs) -> Result<(), String> {
+    if args.repeat == 0 {
+        return Err("--repeat must be at least 1".into());
+    }
+    let vehicle = load_vehicle(&resolve(&args.vehicle)).map_err(|e| e.to_string())?;
+    let mut spec = load_scenario(&resolve(&args.scenario), args.segment.as_deref(), vehicle)
+        .map_err(|e| e.to_string())?;
+    if let Some(sat) = args.tire_saturation {
+        spec.enforce_tire_saturation = matches!(sat, OnOff::On);
+    }
+    let mut settings = load_solver(&resolve(&args.solver)).map_err(|e| e.to_string())?;
+    if let Some(b) = args.barrier {
+        settings.barrier = match b {
+            BarrierArg::Monotone => BarrierRule::Monotone,
+            BarrierArg::Dampmpc => BarrierRule::Dampmpc,
+            BarrierArg::Fullmpc => BarrierRule::Fullmpc,
+            BarrierArg::Loqo => BarrierRule::Loqo,
+        };
+    }
+    let guess = match args.guess {
+        GuessArg::Equilibrium => GuessKind::Equilibrium,
+        GuessArg::Zero => GuessKind::Zero,
+    };
+    if spec.n_intervals != N {
+        return Err(format!(
+            "scenario has n_intervals = {}; this build solves N = {N}",
+            spec.n_intervals
+        ));
+    }
+    let saturation = spec.enforce_tire_saturation;
+    let mut planner = Planner::<N>::new(spec, settings).map_err(|e| e.to_string())?;
+
+    let mut times = Vec::with_capacity(args.repeat);
+    let mut info: Option<SolveInfo> = None;
+    for _ in 0..args.repeat {
+        let i = planner.solve(guess);
+        times.push(i.times.total * 1e3);
+        info = Some(i);
+    }
+    let Some(info) = info else {
+        return Err("no solve ran".into());
+    };
+    times.sort_by(f64::total_cmp);
+    let solve_ms = times[times.len() / 2];
+    let traj = planner.trajectory();
+    let name = planner.spec().name.clone();
+
+    let mut files = Vec::new();
+    if !args.no_output {
+        std::fs::create_dir_all(&args.out_dir)
+            .map_err(|e| format!("{}: cannot create: {e}", args.out_dir.display()))?;
+        let csv = args.out_dir.join(format!("{name}.csv"));
+        traj.write_csv(&csv)
+            .map_err(|e| format!("{}: cannot write: {e}", csv.display()))?;
+        files.push(csv);
+        let png = args.out_dir.join(format!("{name}.png"));
+        match planner::plot::plot_trajectory(&traj, &png) {
+            Ok(()) => files.push(png),
+            Err(e) => eprintln!("trajopt: warning: figure not written: {e}"),
+        }
+    }
+
+    let eq = planner.equilibrium();
+    let summary = format!(
+        "{name}: status {status}, {it} iterations, solve {solve_ms:.2} ms (median of {rep}), \
+         t_final {tf:.4} s, max violation {mv:.2e} (initial {iv:.2e}), max |beta| {mb:.3} rad\n  \
+         guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, tire saturation {sat}\n  \
+         time: evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
+         {nf} factorizations (max {mf} per iteration)",
+        status = info.status.name(),
+        it = info.iterations,
+        rep = args.repeat,
+        tf = traj.t_final(),
+        mv = info.max_violation,
+        iv = info.initial_violation,
+        mb = traj.max_abs_beta(),
+        guess = guess.name(),
+        v = eq.x[planner::model::ix::V],
+        barrier = settings.barrier.name(),
+        sat = if saturation { "on" } else { "off" },
+        ev = info.times.evaluation * 1e3,
+        fa = info.times.factorization * 1e3,
+        so = info.times.solve * 1e3,
+        ls = info.times.line_search * 1e3,
+        nf = info.factorizations,
+        mf = info.max_factorizations_per_iter,
+    );
+    let files_txt: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    if args.json {
+        eprintln!("{summary}");
+        let obj = serde_json::json!({
+            "scenario": name,
+            "status": info.status.name(),
+            "iterations": info.iterations,
+            "solve_ms": solve_ms,
+            "solve_ms_all": times,
+            "t_final": traj.t_final(),
+            "objective": info.objective,
+            "max_violation": info.max_violation,
+            "initial_violation": info.initial_violation,
+            "max_abs_beta_rad": traj.max_abs_beta(),
+            "guess": guess.name(),
+            "integrator": "implicit_euler",
+            "barrier": settings.barrier.name(),
+            "tire_saturation": saturation,
+            "dual_inf": info.dual_inf,
+            "compl": info.compl,
+            "factorizations": info.factorizations,
+            "max_factorizations_per_iter": info.max_factorizations_per_iter,
+            "evaluations": info.evaluations,
+            "times_ms": {
+                "evaluation": info.times.evaluation * 1e3,
+                "factorization": info.times.factorization * 1e3,
+                "solve": info.times.solve * 1e3,
+                "line_search": info.times.line_search * 1e3,
+                "total": info.times.total * 1e3,
+            },
+            "equilibrium": eq,
+            "files": files_txt,
+        });
+        println!("{obj}");
+    } else {
+        println!("{summary}");
+        for f in &files_txt {
+            println!("  wrote {f}");
+        }
+    }
+    Ok(())
+}
+
+fn guess(args: GuessArgs) -> Result<(), String> {
+    let vehicle = load_vehicle(&resolve(&args.vehicle)).map_err(|e| e.to_string())?;
+    if !(args.v_min > 0.0 && args.v_max > args.v_min && args.v_start.is_finite()) {
+        return Err("need 0 < v_min < v_max and a finite v_start".into());
+    }
+    let eq = planner::guess::equilibrium(&vehicle, args.v_min, args.v_max, args.v_start)
+        .map_err(|e| e.to_string())?;
+    if args.json {
+        println!("{}", serde_json::json!(eq));
+    } else {
+        let n = planner::model::STATE_NAMES;
+        let c = planner::model::CONTROL_NAMES;
+        println!(
+            "equilibrium guess ({}, {} iterations, cost {:.2e}):",
+            eq.status, eq.iterations, eq.cost
+        );
+        for i in 0..5 {
+            println!("  {:>6} = {:.6}", n[i], eq.x[i]);
+        }
+        for i in 0..3 {
+            println!("  {:>6} = {:.6}", c[i], eq.u[i]);
+        }
+    }
+    Ok(())
+}

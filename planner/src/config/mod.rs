@@ -8,10 +8,12 @@ pub(crate) mod csv;
 mod error;
 mod fields;
 mod scenario;
+mod solver;
 mod tracks;
 mod vehicle;
 
 pub use error::ConfigError;
 pub use scenario::{data_root_of, list_selections, load_scenario};
+pub use solver::load_solver;
 pub use tracks::{load_track_index, Direction, TrackInfo};
 pub use vehicle::load_vehicle;

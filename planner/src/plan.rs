@@ -1,0 +1,136 @@
+//! One planning problem end to end: the OCP instance (implicit Euler), the solver and the
+//! cached equilibrium guess. Everything is allocated in [`Planner::new`]; [`Planner::solve`]
+//! allocates nothing.
+
+use crate::guess::{self, Equilibrium, GuessKind};
+use crate::ip::{Settings, SetupError, SolveInfo, Solver};
+use crate::model::{ix, NU, NX};
+use crate::ocp::transcription::{ImplicitEulerNlp, TranscriptionError};
+use crate::ocp::{InitialState, OcpSpec};
+use crate::trajectory::Trajectory;
+
+/// Start speed of the equilibrium least-squares problem when the initial state is free
+/// (the independent reference starts it at 15 m/s, too).
+pub const DEFAULT_GUESS_SPEED: f64 = 15.0;
+
+/// Why a planner could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The OCP data does not fit this transcription.
+    #[error(transparent)]
+    Transcription(#[from] TranscriptionError),
+    /// The solver could not be set up.
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+    /// The equilibrium guess failed.
+    #[error(transparent)]
+    Guess(#[from] guess::GuessError),
+}
+
+/// A reusable planner for one road and vehicle with N intervals.
+#[derive(Debug)]
+pub struct Planner<const N: usize> {
+    nlp: ImplicitEulerNlp<N>,
+    solver: Solver,
+    equilibrium: Equilibrium,
+    xs: Vec<[f64; NX]>,
+    us: Vec<[f64; NU]>,
+}
+
+impl<const N: usize> Planner<N> {
+    /// Builds the OCP, the solver and the equilibrium guess (allocates).
+    pub fn new(spec: OcpSpec, settings: Settings) -> Result<Self, PlanError> {
+        let v_start = match spec.initial {
+            InitialState::Fixed(x0) => x0[ix::V],
+            InitialState::Free => DEFAULT_GUESS_SPEED,
+        };
+        let equilibrium = guess::equilibrium(&spec.vehicle, spec.v_min, spec.v_max, v_start)?;
+        let nlp = ImplicitEulerNlp::<N>::new(spec)?;
+        let solver = Solver::new(&nlp, settings)?;
+        Ok(Self {
+            nlp,
+            solver,
+            equilibrium,
+            xs: vec![[0.0; NX]; N + 1],
+            us: vec![[0.0; NU]; N],
+        })
+    }
+
+    /// The problem data.
+    pub fn spec(&self) -> &OcpSpec {
+        self.nlp.spec()
+    }
+
+    /// The cached equilibrium guess (paper eq. 8).
+    pub fn equilibrium(&self) -> &Equilibrium {
+        &self.equilibrium
+    }
+
+    /// The solver (settings, iteration log).
+    pub fn solver(&self) -> &Solver {
+        &self.solver
+    }
+
+    /// Mutable solver access (to change settings between solves).
+    pub fn solver_mut(&mut self) -> &mut Solver {
+        &mut self.solver
+    }
+
+    /// The transcription (diagnostics: row names, violations).
+    pub fn nlp(&mut self) -> &mut ImplicitEulerNlp<N> {
+        &mut self.nlp
+    }
+
+    /// Writes the chosen initial guess into the transcription. Allocates nothing.
+    pub fn set_guess(&mut self, kind: GuessKind) {
+        let fixed = match self.nlp.spec().initial {
+            InitialState::Fixed(x0) => Some(x0),
+            InitialState::Free => None,
+        };
+        match kind {
+            GuessKind::Equilibrium => guess::fill_equilibrium(
+                &self.equilibrium,
+                self.nlp.spec().ds(),
+                fixed.as_ref(),
+                &mut self.xs,
+                &mut self.us,
+            ),
+            GuessKind::Zero => guess::fill_zero(&mut self.xs, &mut self.us),
+        }
+        self.nlp.set_initial_guess(&self.xs, &self.us);
+    }
+
+    /// Solves from the given guess; the solution is then in [`Self::states`] and
+    /// [`Self::controls`]. Allocates nothing.
+    pub fn solve(&mut self, kind: GuessKind) -> SolveInfo {
+        self.set_guess(kind);
+        let info = self.solver.solve(&mut self.nlp);
+        self.nlp
+            .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
+        info
+    }
+
+    /// States x_0..x_N of the last solve (physical units).
+    pub fn states(&self) -> &[[f64; NX]] {
+        &self.xs
+    }
+
+    /// Controls u_0..u_{N-1} of the last solve (physical units).
+    pub fn controls(&self) -> &[[f64; NU]] {
+        &self.us
+    }
+
+    /// The last solution as an owned [`Trajectory`] (allocates; for output).
+    pub fn trajectory(&self) -> Trajectory {
+        let spec = self.nlp.spec();
+        Trajectory {
+            name: spec.name.clone(),
+            ds: spec.ds(),
+            x: self.xs.clone(),
+            u: self.us.clone(),
+            kappa: spec.kappa.clone(),
+            e_min: spec.e_min.clone(),
+            e_max: spec.e_max.clone(),
+        }
+    }
+}

@@ -18,3 +18,16 @@ pub fn oval_nlp_at_reference() -> (ImplicitEulerNlp<100>, Vec<f64>) {
     }
     (nlp, z)
 }
+
+/// A planner for a shipped scenario (`config/` of this repository), with the shipped solver
+/// settings. `select` picks a segment or collision-avoidance scenario.
+pub fn planner_for(scenario: &str, select: Option<&str>) -> planner::plan::Planner<100> {
+    let root = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let vehicle = planner::config::load_vehicle(&root.join("vehicles/lc500.toml"))
+        .expect("shipped vehicle file loads");
+    let spec = planner::config::load_scenario(&root.join("scenarios").join(scenario), select, vehicle)
+        .expect("shipped scenario loads");
+    let settings =
+        planner::config::load_solver(&root.join("solver.toml")).expect("shipped solver file loads");
+    planner::plan::Planner::<100>::new(spec, settings).expect("planner builds")
+}

@@ -1,0 +1,31 @@
+//! Whole solves from the equilibrium guess: the oval (paper Table I row implicit Euler /
+//! Fig. 4b), with the per-phase split printed once.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use planner::guess::GuessKind;
+
+fn oval(c: &mut Criterion) {
+    let mut p = bench::planner_for("oval.toml", None);
+    let info = p.solve(GuessKind::Equilibrium);
+    eprintln!(
+        "oval: status {}, {} iterations, total {:.2} ms (evaluation {:.2}, factorization {:.2}, \
+         solve {:.2}, line search {:.2}), {:.3} ms per iteration",
+        info.status.name(),
+        info.iterations,
+        info.times.total * 1e3,
+        info.times.evaluation * 1e3,
+        info.times.factorization * 1e3,
+        info.times.solve * 1e3,
+        info.times.line_search * 1e3,
+        info.times.total * 1e3 / info.iterations.max(1) as f64,
+    );
+    let mut g = c.benchmark_group("solve");
+    g.sample_size(10);
+    g.bench_function("oval_equilibrium", |b| {
+        b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, oval);
+criterion_main!(benches);

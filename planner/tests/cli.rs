@@ -1,0 +1,72 @@
+//! The `trajopt` command line: the default solve, the JSON contract, bad input.
+
+use std::process::Command;
+
+fn trajopt() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_trajopt"));
+    c.current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    c
+}
+
+#[test]
+fn solve_json_has_the_contract_fields() {
+    let out_dir = std::env::temp_dir().join(format!("trajopt-cli-{}", std::process::id()));
+    let out = trajopt()
+        .args(["solve", "--json", "--out-dir"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    for key in [
+        "status",
+        "iterations",
+        "solve_ms",
+        "t_final",
+        "max_violation",
+        "initial_violation",
+        "max_abs_beta_rad",
+        "guess",
+        "integrator",
+        "barrier",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key} in {stdout}");
+    }
+    assert_eq!(v["status"], "optimal");
+    assert_eq!(v["guess"], "equilibrium");
+    assert_eq!(v["integrator"], "implicit_euler");
+    let t = v["t_final"].as_f64().unwrap();
+    assert!((t - 13.0699).abs() / 13.0699 < 0.005, "t_final {t}");
+    // CSV with one row per node and a PNG.
+    let csv = std::fs::read_to_string(out_dir.join("oval.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 102);
+    assert!(std::fs::metadata(out_dir.join("oval.png")).unwrap().len() > 1000);
+    let _ = std::fs::remove_dir_all(&out_dir);
+}
+
+#[test]
+fn bad_input_gives_a_clear_error_and_nonzero_exit() {
+    let out = trajopt()
+        .args(["solve", "--scenario", "config/scenarios/nope.toml", "--no-output"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nope.toml") && err.contains("cannot read"), "{err}");
+
+    let out = trajopt()
+        .args([
+            "solve",
+            "--scenario",
+            "config/scenarios/segments.toml",
+            "--segment",
+            "S99",
+            "--no-output",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("S99") && err.contains("S01"), "{err}");
+}

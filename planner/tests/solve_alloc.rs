@@ -1,0 +1,29 @@
+//! A full solve after setup allocates nothing (counting global allocator).
+
+use std::path::Path;
+
+use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::guess::GuessKind;
+use planner::plan::Planner;
+
+#[test]
+fn oval_solve_allocates_nothing() {
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let vehicle = load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
+    let spec = load_scenario(&root.join("scenarios/oval.toml"), None, vehicle).unwrap();
+    let settings = load_solver(&root.join("solver.toml")).unwrap();
+    let mut p = Planner::<100>::new(spec, settings).unwrap();
+    // Warm-up solve (any lazily sized buffer is sized here).
+    p.solve(GuessKind::Equilibrium);
+    let mut status = None;
+    let info = allocation_counter::measure(|| {
+        status = Some(p.solve(GuessKind::Equilibrium).status);
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+    assert_eq!(status, Some(planner::ip::Status::Optimal));
+    // The counter does see allocations (the test can fail).
+    let seen = allocation_counter::measure(|| {
+        std::hint::black_box(vec![1u8; 16]);
+    });
+    assert!(seen.count_total > 0);
+}

@@ -25,8 +25,9 @@ pub fn planner_for(scenario: &str, select: Option<&str>) -> planner::plan::Plann
     let root = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
     let vehicle = planner::config::load_vehicle(&root.join("vehicles/lc500.toml"))
         .expect("shipped vehicle file loads");
-    let spec = planner::config::load_scenario(&root.join("scenarios").join(scenario), select, vehicle)
-        .expect("shipped scenario loads");
+    let spec =
+        planner::config::load_scenario(&root.join("scenarios").join(scenario), select, vehicle)
+            .expect("shipped scenario loads");
     let settings =
         planner::config::load_solver(&root.join("solver.toml")).expect("shipped solver file loads");
     planner::plan::Planner::<100>::new(spec, settings).expect("planner builds")

@@ -16,7 +16,11 @@ fn solve_json_has_the_contract_fields() {
         .arg(&out_dir)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let stdout = String::from_utf8(out.stdout).unwrap();
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
     for key in [
@@ -48,12 +52,20 @@ fn solve_json_has_the_contract_fields() {
 #[test]
 fn bad_input_gives_a_clear_error_and_nonzero_exit() {
     let out = trajopt()
-        .args(["solve", "--scenario", "config/scenarios/nope.toml", "--no-output"])
+        .args([
+            "solve",
+            "--scenario",
+            "config/scenarios/nope.toml",
+            "--no-output",
+        ])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("nope.toml") && err.contains("cannot read"), "{err}");
+    assert!(
+        err.contains("nope.toml") && err.contains("cannot read"),
+        "{err}"
+    );
 
     let out = trajopt()
         .args([

@@ -34,7 +34,11 @@ fn oval_from_equilibrium_matches_reference() {
         ((t_n - T_REF) / T_REF).abs() < 0.005,
         "t_N = {t_n}, reference {T_REF}"
     );
-    assert!(info.max_violation < 1e-6, "violation {}", info.max_violation);
+    assert!(
+        info.max_violation < 1e-6,
+        "violation {}",
+        info.max_violation
+    );
     // The equilibrium guess is nearly feasible: only the path (kinematics) is off.
     assert!(info.initial_violation < 2.0, "{}", info.initial_violation);
 

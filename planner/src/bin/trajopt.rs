@@ -18,7 +18,11 @@ use planner::plan::Planner;
 const N: usize = 100;
 
 #[derive(Parser, Debug)]
-#[command(name = "trajopt", version, about = "Reference-free minimum-time trajectory optimizer")]
+#[command(
+    name = "trajopt",
+    version,
+    about = "Reference-free minimum-time trajectory optimizer"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -87,6 +91,9 @@ struct SolveArgs {
     /// Do not write the CSV and PNG files.
     #[arg(long)]
     no_output: bool,
+    /// Print the solver's iteration log (last solve) to stderr.
+    #[arg(long)]
+    log: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -187,6 +194,25 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     let Some(info) = info else {
         return Err("no solve ran".into());
     };
+    if args.log {
+        eprintln!("iter  objective      inf_pr    inf_du    compl     mu        alpha     delta_w  nf bt step");
+        for l in planner.solver().log() {
+            eprintln!(
+                "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {:?}",
+                l.iter,
+                l.objective,
+                l.inf_pr,
+                l.inf_du,
+                l.compl,
+                l.mu,
+                l.alpha,
+                l.delta_w,
+                l.factorizations,
+                l.backtracks,
+                l.step
+            );
+        }
+    }
     times.sort_by(f64::total_cmp);
     let solve_ms = times[times.len() / 2];
     let traj = planner.trajectory();

@@ -177,7 +177,11 @@ impl<K: KktSolver> Solver<K> {
         // infeasible also hands over to restoration.
         const STALL_ITERS: usize = 30;
         let mut theta_ref = f64::INFINITY;
+        let mut f_ref = f64::INFINITY;
         let mut stalled = 0usize;
+        // Restoration is for significant violations only; small ones are left to the
+        // regularized Newton steps (restoration ignores the objective and would undo it).
+        const RESTO_MIN_VIOLATION: f64 = 1e-3;
         let mut iter = 0usize;
         let status;
 
@@ -224,18 +228,22 @@ impl<K: KktSolver> Solver<K> {
                 let theta = norm2(&self.ws.c);
                 if theta <= 0.9 * r.theta_entry || err.inf_pr <= s.constr_viol_tol {
                     resto = None;
+                    self.ws.filter.clear();
                     nu = s.penalty_init;
                     ls_failures = 0;
                     force_reg = false;
                 } else {
                     let stat = self.infeasibility_measure();
-                    let stationary = stat <= s.infeas_stat_tol * err.inf_pr.max(1.0);
-                    if stationary {
+                    // Locally infeasible: a violation well above the acceptable level at a
+                    // stationary point of 0.5 ||c||^2 (relative to the violation itself).
+                    let significant = err.inf_pr > 100.0 * s.acceptable_constr_viol_tol;
+                    let stationary = stat <= s.infeas_stat_tol * err.inf_pr;
+                    if significant && stationary {
                         status = Status::LocallyInfeasible;
                         break;
                     }
                     if resto_steps >= s.max_restoration_steps {
-                        status = if stat <= 1e-3 * err.inf_pr.max(1.0) {
+                        status = if significant && stat <= 1e-3 * err.inf_pr {
                             Status::LocallyInfeasible
                         } else {
                             Status::NumericalFailure
@@ -253,7 +261,7 @@ impl<K: KktSolver> Solver<K> {
                     info.factorizations += 1;
                     info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(1);
                     let Some((alpha, backtracks)) = step else {
-                        status = if stat <= 1e-3 * err.inf_pr.max(1.0) {
+                        status = if significant && stat <= 1e-3 * err.inf_pr {
                             Status::LocallyInfeasible
                         } else {
                             Status::NumericalFailure
@@ -316,7 +324,7 @@ impl<K: KktSolver> Solver<K> {
                 Err(count) => {
                     info.factorizations += count;
                     info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(count);
-                    if err.inf_pr > s.constr_viol_tol && resto_steps < s.max_restoration_steps {
+                    if err.inf_pr > RESTO_MIN_VIOLATION && resto_steps < s.max_restoration_steps {
                         resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
                         self.push_log(
                             iter,
@@ -403,13 +411,15 @@ impl<K: KktSolver> Solver<K> {
                     // Stalling while infeasible: hand over to restoration.
                     tiny_steps = if alpha < 1e-4 { tiny_steps + 1 } else { 0 };
                     let theta = norm2(&self.ws.c);
-                    if theta < 0.99 * theta_ref {
-                        theta_ref = theta;
+                    let f_now = self.ws.f;
+                    if theta < 0.99 * theta_ref || f_now < f_ref - 1e-6 * f_ref.abs().max(1.0) {
+                        theta_ref = theta_ref.min(theta);
+                        f_ref = f_ref.min(f_now);
                         stalled = 0;
                     } else {
                         stalled += 1;
                     }
-                    let infeasible = err.inf_pr > 10.0 * s.constr_viol_tol;
+                    let infeasible = err.inf_pr > RESTO_MIN_VIOLATION;
                     if (tiny_steps >= 5 || stalled >= STALL_ITERS)
                         && infeasible
                         && resto_steps < s.max_restoration_steps
@@ -417,6 +427,7 @@ impl<K: KktSolver> Solver<K> {
                         tiny_steps = 0;
                         stalled = 0;
                         theta_ref = f64::INFINITY;
+                        f_ref = f64::INFINITY;
                         resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
                     }
                     (alpha, bt, if soc { StepKind::SecondOrder } else { kind })
@@ -425,7 +436,7 @@ impl<K: KktSolver> Solver<K> {
                     ls_failures += 1;
                     force_reg = true;
                     self.delta_w_last = (self.delta_w_last * 10.0).max(s.delta_w_init);
-                    if err.inf_pr > s.constr_viol_tol && resto_steps < s.max_restoration_steps {
+                    if err.inf_pr > RESTO_MIN_VIOLATION && resto_steps < s.max_restoration_steps {
                         resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
                     }
                     (0.0, s.max_backtracks, StepKind::Rejected)
@@ -1203,12 +1214,13 @@ impl<K: KktSolver> Solver<K> {
             };
             let switching =
                 grad_d < 0.0 && alpha * (-grad_d).powf(S_PHI) > DELTA * theta.powf(S_THETA);
-            let armijo = phi_t <= phi + 1e-8 * alpha * grad_d;
+            let armijo = le(phi_t, phi + 1e-8 * alpha * grad_d, phi);
             let f_type = theta <= theta_min && switching;
             let ok = if f_type {
                 armijo
             } else {
-                theta_t <= (1.0 - GAMMA_THETA) * theta || phi_t <= phi - GAMMA_PHI * theta
+                le(theta_t, (1.0 - GAMMA_THETA) * theta, theta)
+                    || le(phi_t, phi - GAMMA_PHI * theta, phi)
             };
             if ok && acceptable(&self.ws, theta_t, phi_t) {
                 if !(switching && armijo) {
@@ -1240,9 +1252,10 @@ impl<K: KktSolver> Solver<K> {
                         break;
                     };
                     let ok = if f_type {
-                        phi_s <= phi + 1e-8 * alpha * grad_d
+                        le(phi_s, phi + 1e-8 * alpha * grad_d, phi)
                     } else {
-                        theta_s <= (1.0 - GAMMA_THETA) * theta || phi_s <= phi - GAMMA_PHI * theta
+                        le(theta_s, (1.0 - GAMMA_THETA) * theta, theta)
+                            || le(phi_s, phi - GAMMA_PHI * theta, phi)
                     };
                     if ok && acceptable(&self.ws, theta_s, phi_s) {
                         if !f_type {
@@ -1560,6 +1573,11 @@ impl Restoration {
     fn new(theta_entry: f64, mu: f64) -> Self {
         Self { theta_entry, mu }
     }
+}
+
+/// `a <= b` up to rounding in quantities of magnitude `base` (IPOPT's Compare_le).
+fn le(a: f64, b: f64, base: f64) -> bool {
+    a - b <= 10.0 * f64::EPSILON * base.abs().max(1.0)
 }
 
 fn norm1(v: &[f64]) -> f64 {

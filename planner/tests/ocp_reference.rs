@@ -71,7 +71,7 @@ fn reference_solution_satisfies_our_defects() {
     let mut z = vec![0.0; n];
     nlp.pack(&xs, &us, &mut z);
 
-    let t_n = nlp.eval_f(&z) * 10.0;
+    let t_n = nlp.eval_f(&z) * planner::ocp::scaling::OBJECTIVE_SCALE;
     println!("t_N = {t_n:.6}");
     assert!((t_n - 13.0699).abs() < 5e-5, "t_N = {t_n}");
 

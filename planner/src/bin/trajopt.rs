@@ -317,11 +317,11 @@ fn guess(args: GuessArgs) -> Result<(), String> {
             "equilibrium guess ({}, {} iterations, cost {:.2e}):",
             eq.status, eq.iterations, eq.cost
         );
-        for i in 0..5 {
-            println!("  {:>6} = {:.6}", n[i], eq.x[i]);
+        for (name, v) in n.iter().zip(&eq.x).take(5) {
+            println!("  {name:>6} = {v:.6}");
         }
-        for i in 0..3 {
-            println!("  {:>6} = {:.6}", c[i], eq.u[i]);
+        for (name, v) in c.iter().zip(&eq.u) {
+            println!("  {name:>6} = {v:.6}");
         }
     }
     Ok(())

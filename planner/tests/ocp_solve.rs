@@ -45,10 +45,11 @@ fn oval_from_equilibrium_matches_reference() {
     // The speed profile follows the reference away from the free node 0 (finding (c)).
     let r = ReferenceCsv::load(&oval_reference_path()).unwrap();
     let v_ref = r.col("V");
-    let mut sq = 0.0;
-    for k in 1..=100 {
-        sq += (p.states()[k][ix::V] - v_ref[k]).powi(2);
-    }
+    let sq: f64 = p.states()[1..]
+        .iter()
+        .zip(&v_ref[1..])
+        .map(|(x, v)| (x[ix::V] - v).powi(2))
+        .sum();
     let rms = (sq / 100.0).sqrt();
     assert!(rms < 0.5, "speed RMS difference {rms} m/s");
 }

@@ -694,8 +694,15 @@ impl<K: KktSolver> Solver<K> {
         let (n, m) = (self.ws.n, self.ws.m);
         self.compute_sigma();
         let mut delta_c = delta_c_base;
+        // IPOPT's Algorithm IC, with two changes that bound the work per iteration: when
+        // the previous iteration needed a shift, start from a third of it instead of
+        // retrying zero (saves a factorization on degenerate problems), and grow tiny shifts
+        // by 100 so the cap on factorizations is not spent creeping up from 1e-12.
+        const DELTA_W_FLOOR: f64 = 1e-12;
         let mut delta_w = if force_reg {
             self.delta_w_last.max(s.delta_w_init)
+        } else if self.delta_w_last > 0.0 {
+            (self.delta_w_last / 3.0).max(DELTA_W_FLOOR)
         } else {
             0.0
         };
@@ -712,9 +719,8 @@ impl<K: KktSolver> Solver<K> {
             });
             match res {
                 Ok(inertia) if inertia.positive == n && inertia.negative == m => {
-                    if delta_w > 0.0 {
-                        self.delta_w_last = delta_w;
-                    }
+                    // A shift at the floor is forgotten: the next iteration tries zero again.
+                    self.delta_w_last = if delta_w > DELTA_W_FLOOR { delta_w } else { 0.0 };
                     return Ok(Factorization { delta_w, count });
                 }
                 Ok(_) => {}
@@ -727,9 +733,9 @@ impl<K: KktSolver> Solver<K> {
                 if self.delta_w_last == 0.0 {
                     s.delta_w_init
                 } else {
-                    (self.delta_w_last / 3.0).max(1e-20)
+                    (self.delta_w_last / 3.0).max(DELTA_W_FLOOR)
                 }
-            } else if self.delta_w_last == 0.0 {
+            } else if self.delta_w_last == 0.0 || delta_w < 1e-6 {
                 delta_w * 100.0
             } else {
                 delta_w * 8.0

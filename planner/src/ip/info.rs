@@ -67,7 +67,7 @@ pub struct IterLog {
     pub objective: f64,
     /// Max constraint violation.
     pub inf_pr: f64,
-    /// Scaled dual infeasibility.
+    /// Scaled dual infeasibility (restoration rows: relative stationarity of the violation).
     pub inf_du: f64,
     /// Scaled complementarity.
     pub compl: f64,

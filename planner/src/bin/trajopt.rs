@@ -217,6 +217,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     let solve_ms = times[times.len() / 2];
     let traj = planner.trajectory();
     let name = planner.spec().name.clone();
+    let worst = worst_rows(&mut planner, 5);
 
     let mut files = Vec::new();
     if !args.no_output {
@@ -289,16 +290,45 @@ fn solve(args: SolveArgs) -> Result<(), String> {
                 "total": info.times.total * 1e3,
             },
             "equilibrium": eq,
+            "worst_rows": worst.iter().map(|(r, v)| serde_json::json!({"row": r, "violation": v})).collect::<Vec<_>>(),
             "files": files_txt,
         });
         println!("{obj}");
     } else {
         println!("{summary}");
+        if !info.status.is_success() {
+            println!("  largest violations (scaled NLP units):");
+            for (row, v) in &worst {
+                println!("    {v:.3e}  {row}");
+            }
+        }
         for f in &files_txt {
             println!("  wrote {f}");
         }
     }
     Ok(())
+}
+
+/// The `count` constraint rows with the largest violation at the returned point, named
+/// (e.g. `defect[V]@0`): where an infeasible problem concentrates its violation.
+fn worst_rows(planner: &mut Planner<N>, count: usize) -> Vec<(String, f64)> {
+    use planner::ip::Nlp;
+    let x = planner.solver().x().to_vec();
+    let nlp = planner.nlp();
+    let d = nlp.dims();
+    let (mut xl, mut xu) = (vec![0.0; d.n], vec![0.0; d.n]);
+    let (mut gl, mut gu, mut g) = (vec![0.0; d.m], vec![0.0; d.m], vec![0.0; d.m]);
+    nlp.bounds(&mut xl, &mut xu, &mut gl, &mut gu);
+    nlp.eval_g(&x, &mut g);
+    let mut rows: Vec<(usize, f64)> = (0..d.m)
+        .map(|i| (i, (gl[i] - g[i]).max(g[i] - gu[i]).max(0.0)))
+        .filter(|(_, v)| *v > 0.0)
+        .collect();
+    rows.sort_by(|a, b| b.1.total_cmp(&a.1));
+    rows.truncate(count);
+    rows.into_iter()
+        .map(|(i, v)| (nlp.row_name(i), v))
+        .collect()
 }
 
 fn guess(args: GuessArgs) -> Result<(), String> {

@@ -677,11 +677,19 @@ impl<K: KktSolver> Solver<K> {
             let mut g = v[j];
             if ws.has_lo[j] && g > 0.0 {
                 let sl = ws.w[j] - ws.lo[j];
-                g = if sl <= ACTIVE * ws.lo[j].abs().max(1.0) { 0.0 } else { g.min(sl) };
+                g = if sl <= ACTIVE * ws.lo[j].abs().max(1.0) {
+                    0.0
+                } else {
+                    g.min(sl)
+                };
             }
             if ws.has_hi[j] && g < 0.0 {
                 let su = ws.hi[j] - ws.w[j];
-                g = if su <= ACTIVE * ws.hi[j].abs().max(1.0) { 0.0 } else { g.max(-su) };
+                g = if su <= ACTIVE * ws.hi[j].abs().max(1.0) {
+                    0.0
+                } else {
+                    g.max(-su)
+                };
             }
             r = r.max(g.abs());
         }
@@ -730,7 +738,11 @@ impl<K: KktSolver> Solver<K> {
             match res {
                 Ok(inertia) if inertia.positive == n && inertia.negative == m => {
                     // A shift at the floor is forgotten: the next iteration tries zero again.
-                    self.delta_w_last = if delta_w > DELTA_W_FLOOR { delta_w } else { 0.0 };
+                    self.delta_w_last = if delta_w > DELTA_W_FLOOR {
+                        delta_w
+                    } else {
+                        0.0
+                    };
                     return Ok(Factorization { delta_w, count });
                 }
                 Ok(_) => {}

@@ -2,10 +2,10 @@
 
 use super::workspace::Workspace;
 
-/// Monotone (Fiacco-McCormick) decrease: mu <- max(tol/10, min(0.2 mu, mu^1.5))
-/// (Waechter & Biegler 2006, eq. 7).
-pub fn monotone_next(mu: f64, tol: f64, mu_min: f64) -> f64 {
-    (0.2 * mu).min(mu.powf(1.5)).max(tol / 10.0).max(mu_min)
+/// Monotone (Fiacco-McCormick) decrease: mu <- max(tol/10, min(kappa mu, mu^theta))
+/// (Waechter & Biegler 2006, eq. 7; IPOPT uses kappa = 0.2, theta = 1.5).
+pub fn monotone_next(mu: f64, kappa: f64, theta: f64, tol: f64, mu_min: f64) -> f64 {
+    (kappa * mu).min(mu.powf(theta)).max(tol / 10.0).max(mu_min)
 }
 
 /// Average complementarity after steps (alpha_p, alpha_d) along the current direction

@@ -96,10 +96,19 @@ pub struct Settings {
     pub globalization: Globalization,
     /// Adaptive rules keep mu >= this factor times min(1, KKT error).
     pub mu_floor_factor: f64,
+    /// Adaptive rules keep mu >= this fraction of the previous iteration's mu.
+    pub mu_max_decrease: f64,
     /// Initial barrier parameter (monotone rule).
     pub mu_init: f64,
     /// Smallest barrier parameter.
     pub mu_min: f64,
+    /// Monotone rule: linear decrease factor kappa_mu of mu (IPOPT: 0.2).
+    pub mu_linear_decrease: f64,
+    /// Monotone rule: superlinear decrease power theta_mu of mu (IPOPT: 1.5).
+    pub mu_superlinear_power: f64,
+    /// Monotone rule: a barrier problem counts as solved once its error is below this
+    /// factor times mu (IPOPT's barrier_tol_factor: 10).
+    pub barrier_tol_factor: f64,
     /// Relative push of the starting point into the bounds.
     pub bound_push: f64,
     /// Relative push of the starting point into the bounds, as a fraction of the interval.
@@ -116,6 +125,9 @@ pub struct Settings {
     pub penalty_init: f64,
     /// First primal regularization tried when the inertia is wrong.
     pub delta_w_init: f64,
+    /// Factor by which the previous iteration's regularization is reduced for the first
+    /// factorization of the next iteration (IPOPT uses 3).
+    pub delta_w_decrease: f64,
     /// Largest primal regularization before the iteration is declared failed.
     pub delta_w_max: f64,
     /// Dual regularization always present (keeps redundant constraints factorizable).
@@ -142,8 +154,12 @@ impl Default for Settings {
             barrier: BarrierRule::Monotone,
             globalization: Globalization::Filter,
             mu_floor_factor: 1e-2,
+            mu_max_decrease: 0.1,
             mu_init: 0.1,
             mu_min: 1e-11,
+            mu_linear_decrease: 0.2,
+            mu_superlinear_power: 1.5,
+            barrier_tol_factor: 10.0,
             bound_push: 1e-2,
             bound_frac: 1e-2,
             bound_relax: 1e-8,
@@ -153,6 +169,7 @@ impl Default for Settings {
             penalty_init: 1.0,
             delta_w_init: 1e-4,
             delta_w_max: 1e20,
+            delta_w_decrease: 10.0,
             delta_c_min: 1e-10,
             infeas_stat_tol: 1e-6,
         }
@@ -192,8 +209,10 @@ impl Settings {
             ("penalty_init", self.penalty_init),
             ("delta_w_init", self.delta_w_init),
             ("delta_w_max", self.delta_w_max),
+            ("delta_w_decrease", self.delta_w_decrease),
             ("infeas_stat_tol", self.infeas_stat_tol),
             ("mu_floor_factor", self.mu_floor_factor),
+            ("barrier_tol_factor", self.barrier_tol_factor),
         ];
         for (field, v) in pos {
             if v.is_nan() || v <= 0.0 || (v.is_infinite() && field != "max_time_s") {
@@ -206,6 +225,8 @@ impl Settings {
         }
         let unit = [
             ("tau_min", self.tau_min),
+            ("mu_max_decrease", self.mu_max_decrease),
+            ("mu_linear_decrease", self.mu_linear_decrease),
             ("armijo", self.armijo),
             ("bound_frac", self.bound_frac.min(0.49)),
         ];
@@ -217,6 +238,13 @@ impl Settings {
                     expected: "must lie in (0, 1)",
                 });
             }
+        }
+        if !(self.mu_superlinear_power > 1.0 && self.mu_superlinear_power < 2.0) {
+            return Err(SettingsError {
+                field: "mu_superlinear_power",
+                value: self.mu_superlinear_power.to_string(),
+                expected: "must lie in (1, 2)",
+            });
         }
         if !(self.bound_relax >= 0.0 && self.bound_relax < 1e-2) {
             return Err(SettingsError {

@@ -307,7 +307,7 @@ impl<K: KktSolver> Solver<K> {
             if !free_mode {
                 let mut e = err;
                 for _ in 0..8 {
-                    if e.overall_mu() > 10.0 * mu || mu <= s.mu_min {
+                    if e.overall_mu() > s.barrier_tol_factor * mu || mu <= s.mu_min {
                         break;
                     }
                     if s.barrier != BarrierRule::Monotone {
@@ -315,7 +315,13 @@ impl<K: KktSolver> Solver<K> {
                         self.ws.progress.clear();
                         break;
                     }
-                    mu = barrier::monotone_next(mu, s.tol, s.mu_min);
+                    mu = barrier::monotone_next(
+                        mu,
+                        s.mu_linear_decrease,
+                        s.mu_superlinear_power,
+                        s.tol,
+                        s.mu_min,
+                    );
                     e = compute_errors(&mut self.ws, mu);
                 }
             }
@@ -720,7 +726,7 @@ impl<K: KktSolver> Solver<K> {
         let mut delta_w = if force_reg {
             self.delta_w_last.max(s.delta_w_init)
         } else if self.delta_w_last > 0.0 {
-            (self.delta_w_last / 3.0).max(DELTA_W_FLOOR)
+            (self.delta_w_last / s.delta_w_decrease).max(DELTA_W_FLOOR)
         } else {
             0.0
         };
@@ -1013,6 +1019,9 @@ impl<K: KktSolver> Solver<K> {
                 // Keep mu from collapsing while far from feasibility.
                 let kkt = err.inf_pr.max(err.inf_du / err.s_d).min(1.0);
                 let floor = s.mu_min.max(s.mu_floor_factor * kkt);
+                // Damping: mu falls by at most `mu_max_decrease` per iteration, so the
+                // barrier keeps regularizing the nonconvex early phase.
+                let floor = floor.max(s.mu_max_decrease * mu);
                 let mu_new = (sigma * mu_avg).max(floor).min(mu_max);
                 {
                     let ws = &mut self.ws;

@@ -7,6 +7,7 @@
 //! pattern.
 
 use super::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
+use super::fast;
 use super::layout::Layout;
 use super::scaling::{FRICTION_SCALE, SATURATION_SCALE, U_NOMINAL, X_NOMINAL};
 use super::spec::{InitialState, OcpSpec};
@@ -177,6 +178,44 @@ pub fn saturation_jac(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out:
         }
     }
 }
+
+/// Saturation Jacobian values in [`saturation_pattern`] order, by the fast structured path
+/// of [`crate::ocp::fast`].
+pub fn saturation_jac_fast(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
+    let s = fast::saturation_jacobian(p, &x, &u);
+    for row in 0..SATURATION_ROWS {
+        for l in 0..SATURATION_INPUTS {
+            out[row * SATURATION_INPUTS + l] = s[row].g[l] * SAT_NOMINAL[l] / SATURATION_SCALE;
+        }
+    }
+}
+
+/// Hessian of lambda_f g_f + lambda_r g_r in [`saturation_hess_pattern`] order by the fast
+/// structured path of [`crate::ocp::fast`] (overwrites `out`).
+pub fn saturation_hess_fast(
+    p: &VehicleParams,
+    lay: &Layout,
+    k: usize,
+    z: &[f64],
+    lambda: &[f64],
+    out: &mut [f64],
+) {
+    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
+    let w = [lambda[0] / SATURATION_SCALE, lambda[1] / SATURATION_SCALE];
+    fast::saturation_hessian(p, &x, &u, w).write_lower(&SAT_NOMINAL, out);
+}
+
+/// Nominal of each saturation input [r, V, beta, V_wr, dFz, delta, T_bf].
+const SAT_NOMINAL: [f64; SATURATION_INPUTS] = [
+    X_NOMINAL[ix::R],
+    X_NOMINAL[ix::V],
+    X_NOMINAL[ix::BETA],
+    X_NOMINAL[ix::VWR],
+    X_NOMINAL[ix::DFZ],
+    U_NOMINAL[iu::DELTA],
+    U_NOMINAL[iu::TBF],
+];
 
 /// Hessian pattern of the saturation rows of interval k: global (row >= col) pairs.
 pub fn saturation_hess_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {

@@ -40,6 +40,18 @@ pub struct SchemeContext<'a> {
     pub kappa: &'a [f64],
     /// Decision-vector layout.
     pub layout: Layout,
+    /// Evaluate derivatives with the num-dual oracle instead of the fast path.
+    pub oracle: bool,
+}
+
+/// Which implementation evaluates the exact Jacobian and Hessian.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Derivatives {
+    /// Structured hand-written jets of [`crate::ocp::fast`] (default).
+    #[default]
+    Fast,
+    /// num-dual duals through the generic model (the reference implementation).
+    Oracle,
 }
 
 /// The integrator-specific part of a transcription: the defect rows of one interval.
@@ -155,6 +167,7 @@ struct Stage {
 pub struct Transcription<S: DefectScheme, const N: usize> {
     spec: OcpSpec,
     scheme: S,
+    derivatives: Derivatives,
     layout: Layout,
     n_init: usize,
     m: usize,
@@ -341,6 +354,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         let n = layout.n();
         let mut me = Self {
             scheme,
+            derivatives: Derivatives::Fast,
             layout,
             n_init,
             m,
@@ -389,12 +403,23 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         &self.scheme
     }
 
+    /// Which implementation evaluates derivatives.
+    pub fn derivatives(&self) -> Derivatives {
+        self.derivatives
+    }
+
+    /// Selects the derivative implementation (fast path or num-dual oracle).
+    pub fn set_derivatives(&mut self, d: Derivatives) {
+        self.derivatives = d;
+    }
+
     fn context(&self) -> SchemeContext<'_> {
         SchemeContext {
             vehicle: &self.spec.vehicle,
             ds: self.spec.ds(),
             kappa: &self.spec.kappa,
             layout: self.layout,
+            oracle: self.derivatives == Derivatives::Oracle,
         }
     }
 
@@ -634,7 +659,11 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
                 .jac(&cx, k, x, &mut vals[st.jac_defect..st.jac_defect + len]);
             friction_jac(p, &mut vals[st.jac_friction..]);
             if self.spec.enforce_tire_saturation {
-                saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
+                if cx.oracle {
+                    saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
+                } else {
+                    saturation_jac_fast(p, lay, k, x, &mut vals[st.jac_sat..]);
+                }
             }
             if k >= 1 {
                 rate_jac(p, &mut vals[st.jac_rate..]);
@@ -651,6 +680,7 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
             ds: self.spec.ds(),
             kappa: &self.spec.kappa,
             layout: self.layout,
+            oracle: self.derivatives == Derivatives::Oracle,
         };
         let lay = &self.layout;
         let p = &self.spec.vehicle;
@@ -671,14 +701,13 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
             if self.spec.enforce_tire_saturation {
                 let slots =
                     &self.hess_sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
-                saturation_hess(
-                    p,
-                    lay,
-                    k,
-                    x,
-                    &lambda[st.row_sat..st.row_sat + SATURATION_ROWS],
-                    &mut scratch[..SATURATION_HESS_NNZ],
-                );
+                let lam = &lambda[st.row_sat..st.row_sat + SATURATION_ROWS];
+                let out = &mut scratch[..SATURATION_HESS_NNZ];
+                if cx.oracle {
+                    saturation_hess(p, lay, k, x, lam, out);
+                } else {
+                    saturation_hess_fast(p, lay, k, x, lam, out);
+                }
                 for (&s, &v) in slots.iter().zip(scratch.iter()) {
                     vals[s] += v;
                 }

@@ -34,35 +34,65 @@ pub const RATE_NNZ: usize = 4 * RATE_ROWS;
 const SAT_STATES: [usize; 5] = [ix::R, ix::V, ix::BETA, ix::VWR, ix::DFZ];
 const SAT_CONTROLS: [usize; 2] = [iu::DELTA, iu::TBF];
 
-/// States fixed by the initial-condition equality rows: Free -> s_0, t_0, dpsi_0;
-/// Fixed -> all nine.
-pub fn initial_states(spec: &OcpSpec) -> &'static [usize] {
+/// States of the initial-condition rows g = x_0[state], in row order. All nine rows are
+/// always present, so the constraint structure (and the solver's symbolic factorization) does
+/// not depend on the initial-state mode and [`crate::ocp::Transcription::set_initial`] only
+/// changes bounds. s_0, t_0 and dpsi_0 come first (equalities in both modes).
+pub const INITIAL_ROWS: [usize; NX] = [
+    ix::S,
+    ix::T,
+    ix::DPSI,
+    ix::R,
+    ix::V,
+    ix::BETA,
+    ix::VWR,
+    ix::DFZ,
+    ix::E,
+];
+
+/// Free-mode bound |r_0| <= 10 rad/s (physically never active, see [`initial_row_bounds`]).
+pub const FREE_R0_MAX: f64 = 10.0;
+/// Free-mode bound |beta_0| <= 1.5 rad (physically never active).
+pub const FREE_BETA0_MAX: f64 = 1.5;
+
+/// Scaled bounds (g_l, g_u) of the initial-condition row of state `i`.
+///
+/// * Fixed(x0): every row is the equality x_0[i] = x0[i].
+/// * Free (paper convention): s_0 = t_0 = dpsi_0 = 0 are equalities; e_0, V_0 and V_wr,0 carry
+///   the node-0 bounds e_min[0] <= e_0 <= e_max[0], v_min <= V_0 <= v_max,
+///   V_wr,0 >= v_wr_min (x_0 itself is never variable-bounded, in either mode); r_0, beta_0
+///   and dFz_0 get wide physical envelopes (|r| <= 10 rad/s, |beta| <= 1.5 rad,
+///   |dFz| <= m g) that are never active at a solution. They are not left at -inf..inf: the
+///   solver gives such a row a slack without any barrier term, whose zero curvature makes
+///   the condensed KKT dual diagonal -1/(sigma_s + delta_w) infinite when delta_w = 0.
+pub fn initial_row_bounds(spec: &OcpSpec, i: usize) -> (f64, f64) {
+    let nom = X_NOMINAL[i];
     match spec.initial {
-        InitialState::Free => &[ix::S, ix::T, ix::DPSI],
-        InitialState::Fixed(_) => &[0, 1, 2, 3, 4, 5, 6, 7, 8],
+        InitialState::Fixed(x0) => (x0[i] / nom, x0[i] / nom),
+        InitialState::Free => match i {
+            ix::E => (spec.e_min[0] / nom, spec.e_max[0] / nom),
+            ix::V => (spec.v_min / nom, spec.v_max / nom),
+            ix::VWR => (spec.vehicle.v_wr_min / nom, f64::INFINITY),
+            ix::R => (-FREE_R0_MAX / nom, FREE_R0_MAX / nom),
+            ix::BETA => (-FREE_BETA0_MAX / nom, FREE_BETA0_MAX / nom),
+            ix::DFZ => {
+                let w = spec.vehicle.m * spec.vehicle.g / nom;
+                (-w, w)
+            }
+            _ => (0.0, 0.0),
+        },
     }
 }
 
-/// Scaled target value of initial-condition state `i`.
-pub fn initial_target(spec: &OcpSpec, i: usize) -> f64 {
-    match spec.initial {
-        InitialState::Free => 0.0,
-        InitialState::Fixed(x0) => x0[i] / X_NOMINAL[i],
-    }
-}
-
-/// Variable bounds in scaled units: e and V at every node, V_wr >= v_wr_min (R10), control
-/// box; everything else free. With a Fixed initial state, x_0 is left unbounded (its
-/// equality rows pin it; a value on a bound would leave no interior).
+/// Variable bounds in scaled units: e and V at nodes 1..N, V_wr >= v_wr_min (R10), control
+/// box; everything else free. x_0 is never variable-bounded: its node-0 bounds (Free) or
+/// values (Fixed) are carried by the initial-condition rows ([`initial_row_bounds`]); a
+/// fixed value on a variable bound would leave no interior.
 pub fn variable_bounds(lay: &Layout, spec: &OcpSpec, x_l: &mut [f64], x_u: &mut [f64]) {
     let p = &spec.vehicle;
     x_l.fill(f64::NEG_INFINITY);
     x_u.fill(f64::INFINITY);
-    let first = match spec.initial {
-        InitialState::Free => 0,
-        InitialState::Fixed(_) => 1,
-    };
-    for k in first..=lay.n_intervals {
+    for k in 1..=lay.n_intervals {
         x_l[lay.x(k, ix::E)] = spec.e_min[k] / X_NOMINAL[ix::E];
         x_u[lay.x(k, ix::E)] = spec.e_max[k] / X_NOMINAL[ix::E];
         x_l[lay.x(k, ix::V)] = spec.v_min / X_NOMINAL[ix::V];

@@ -3,6 +3,8 @@
 //! operating envelope, including saturated tires (x > 1) and the active R7 floor, and the
 //! whole NLP (Jacobian and Hessian values) in both modes.
 
+#![allow(clippy::needless_range_loop)] // index-based matrix comparison
+
 mod common;
 
 use common::{random_control, random_state, random_trajectory, Rng};

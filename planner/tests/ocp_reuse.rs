@@ -157,7 +157,7 @@ fn solve_after_update_equals_fresh_solve() {
 
     // One instance and solver: the original problem, then the new road with a fixed x_0.
     let mut nlp = ImplicitEulerNlp::<N>::new(spec.clone()).unwrap();
-    let mut solver = Solver::new(&nlp, settings.clone()).unwrap();
+    let mut solver = Solver::new(&nlp, settings).unwrap();
     let (first, _) = solve(&mut solver, &mut nlp, &eq);
     assert_eq!(first.status, Status::Optimal);
     for initial in [InitialState::Free, InitialState::Fixed(X0)] {
@@ -171,7 +171,7 @@ fn solve_after_update_equals_fresh_solve() {
         fresh.e_max.clone_from(&e_max);
         fresh.initial = initial;
         let mut nlp_b = ImplicitEulerNlp::<N>::new(fresh).unwrap();
-        let mut solver_b = Solver::new(&nlp_b, settings.clone()).unwrap();
+        let mut solver_b = Solver::new(&nlp_b, settings).unwrap();
         let (b, zb) = solve(&mut solver_b, &mut nlp_b, &eq);
         println!(
             "{initial:?}: {} its, t_N objective {:.6}, status {:?}",

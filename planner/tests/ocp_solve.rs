@@ -46,8 +46,8 @@ fn oval_from_equilibrium_matches_reference() {
     let r = ReferenceCsv::load(&oval_reference_path()).unwrap();
     let v_ref = r.col("V");
     let mut sq = 0.0;
-    for k in 1..=100 {
-        sq += (p.states()[k][ix::V] - v_ref[k]).powi(2);
+    for (x, v) in p.states()[1..=100].iter().zip(&v_ref[1..=100]) {
+        sq += (x[ix::V] - v).powi(2);
     }
     let rms = (sq / 100.0).sqrt();
     assert!(rms < 0.5, "speed RMS difference {rms} m/s");

@@ -8,6 +8,9 @@
 //! The Hessian of a [`D2`] is stored and updated as a full symmetric square (fixed-trip
 //! inner loops the compiler unrolls and vectorizes; measured faster than triangle loops).
 
+// Jet arithmetic implements each operator by its derivative rules, which mix operators.
+#![allow(clippy::suspicious_arithmetic_impl)]
+
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Arithmetic needed by the fast model pieces: field operations, scalar operations and the

@@ -117,8 +117,9 @@ fn updated_instance_equals_fresh_build() {
         same_bounds(&nlp, &fresh);
         assert!(structure(&nlp) == s0 && structure(&fresh) == s0);
     }
-    // Free mode: s_0, t_0, dpsi_0 are the only equalities among the initial rows; e_0 is
-    // bounded by its row, x_0 by no variable bound.
+    // Free mode: s_0, t_0, dpsi_0 are the only equalities among the initial rows, the
+    // others finite inactive envelopes; e_0 has its node-0 variable bounds. Fixed: x_0 is
+    // not variable-bounded.
     nlp.set_initial(InitialState::Free);
     let b = bounds(&nlp);
     let eq: Vec<bool> = (0..NX).map(|r| b.gl[r] == b.gu[r]).collect();
@@ -126,9 +127,12 @@ fn updated_instance_equals_fresh_build() {
         eq,
         [true, true, true, false, false, false, false, false, false]
     );
-    assert_eq!((b.gl[8], b.gu[8]), (e_min[0], e_max[0])); // e nominal is 1 m
+    let lay = nlp.layout();
+    assert_eq!((b.xl[lay.x(0, 5)], b.xu[lay.x(0, 5)]), (e_min[0], e_max[0])); // e nominal 1 m
+    assert!((0..NX).all(|r| b.gl[r].is_finite() && b.gu[r].is_finite()));
+    nlp.set_initial(InitialState::Fixed(X0));
+    let b = bounds(&nlp);
     assert!((0..NX).all(|i| b.xl[i].is_infinite() && b.xu[i].is_infinite()));
-    assert!((0..NX).all(|r| b.gl[r].is_finite()));
 }
 
 /// Solves `nlp` with `solver` from the equilibrium guess.

@@ -1,49 +1,57 @@
 //! Cost of one full derivative evaluation of the oval NLP (N = 100, implicit Euler):
-//! objective gradient, constraints, constraint Jacobian and Lagrangian Hessian.
+//! objective gradient, constraints, constraint Jacobian and Lagrangian Hessian, for the
+//! fast structured derivative path (default) and the num-dual oracle for comparison.
 
 use bench::oval_nlp_at_reference;
 use criterion::{criterion_group, criterion_main, Criterion};
 use planner::ip::Nlp;
+use planner::ocp::Derivatives;
 use std::hint::black_box;
 
 fn eval(c: &mut Criterion) {
-    let (mut nlp, z) = oval_nlp_at_reference();
-    let d = nlp.dims();
-    let mut grad = vec![0.0; d.n];
-    let mut g = vec![0.0; d.m];
-    let mut jac = vec![0.0; d.nnz_jac];
-    let mut hess = vec![0.0; d.nnz_hess];
-    let lambda: Vec<f64> = (0..d.m).map(|i| ((i % 7) as f64 - 3.0) * 0.1).collect();
+    for (mode, name) in [
+        (Derivatives::Fast, "oval_ie_n100"),
+        (Derivatives::Oracle, "oval_ie_n100_oracle"),
+    ] {
+        let (mut nlp, z) = oval_nlp_at_reference();
+        nlp.set_derivatives(mode);
+        let d = nlp.dims();
+        let mut grad = vec![0.0; d.n];
+        let mut g = vec![0.0; d.m];
+        let mut jac = vec![0.0; d.nnz_jac];
+        let mut hess = vec![0.0; d.nnz_hess];
+        let lambda: Vec<f64> = (0..d.m).map(|i| ((i % 7) as f64 - 3.0) * 0.1).collect();
 
-    let mut group = c.benchmark_group("oval_ie_n100");
-    group.bench_function("full_eval(grad,g,jac,hess)", |b| {
-        b.iter(|| {
-            nlp.eval_grad_f(black_box(&z), &mut grad);
-            nlp.eval_g(black_box(&z), &mut g);
-            nlp.eval_jac_g(black_box(&z), &mut jac);
-            nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess);
-        })
-    });
-    group.bench_function("g", |b| b.iter(|| nlp.eval_g(black_box(&z), &mut g)));
-    group.bench_function("jac_g", |b| {
-        b.iter(|| nlp.eval_jac_g(black_box(&z), &mut jac))
-    });
-    group.bench_function("hess", |b| {
-        b.iter(|| nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess))
-    });
-    group.finish();
+        let mut group = c.benchmark_group(name);
+        group.bench_function("full_eval(grad,g,jac,hess)", |b| {
+            b.iter(|| {
+                nlp.eval_grad_f(black_box(&z), &mut grad);
+                nlp.eval_g(black_box(&z), &mut g);
+                nlp.eval_jac_g(black_box(&z), &mut jac);
+                nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess);
+            })
+        });
+        group.bench_function("g", |b| b.iter(|| nlp.eval_g(black_box(&z), &mut g)));
+        group.bench_function("jac_g", |b| {
+            b.iter(|| nlp.eval_jac_g(black_box(&z), &mut jac))
+        });
+        group.bench_function("hess", |b| {
+            b.iter(|| nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess))
+        });
+        group.finish();
 
-    // Split of the Hessian cost: the same point without the saturation rows.
-    let (nlp_sat, z) = oval_nlp_at_reference();
-    let mut spec = nlp_sat.spec().clone();
-    spec.enforce_tire_saturation = false;
-    let mut nlp = planner::ocp::ImplicitEulerNlp::<100>::new(spec).expect("N = 100");
-    let d = nlp.dims();
-    let mut hess = vec![0.0; d.nnz_hess];
-    let lambda: Vec<f64> = (0..d.m).map(|i| ((i % 7) as f64 - 3.0) * 0.1).collect();
-    c.bench_function("oval_ie_n100_no_saturation/hess", |b| {
-        b.iter(|| nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess))
-    });
+        // Split of the Hessian cost: the same point without the saturation rows.
+        let mut spec = nlp.spec().clone();
+        spec.enforce_tire_saturation = false;
+        let mut nlp = planner::ocp::ImplicitEulerNlp::<100>::new(spec).expect("N = 100");
+        nlp.set_derivatives(mode);
+        let d = nlp.dims();
+        let mut hess = vec![0.0; d.nnz_hess];
+        let lambda: Vec<f64> = (0..d.m).map(|i| ((i % 7) as f64 - 3.0) * 0.1).collect();
+        c.bench_function(&format!("{name}_no_saturation/hess"), |b| {
+            b.iter(|| nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess))
+        });
+    }
 }
 
 criterion_group!(benches, eval);

@@ -1,14 +1,33 @@
 //! Whole solves from the equilibrium guess: the oval (paper Table I row implicit Euler /
-//! Fig. 4b), with the per-phase split printed once.
+//! Fig. 4b), with the per-phase split printed once, for the fast derivative path and the
+//! num-dual oracle.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use planner::guess::GuessKind;
+use planner::ocp::Derivatives;
 
 fn oval(c: &mut Criterion) {
-    let mut p = bench::planner_for("oval.toml", None);
+    let mut g = c.benchmark_group("solve");
+    g.sample_size(10);
+    for (mode, name) in [
+        (Derivatives::Fast, "oval_equilibrium"),
+        (Derivatives::Oracle, "oval_equilibrium_oracle"),
+    ] {
+        let mut p = bench::planner_for("oval.toml", None);
+        p.nlp().set_derivatives(mode);
+        report(name, &mut p);
+        g.bench_function(name, |b| {
+            b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
+        });
+    }
+    g.finish();
+}
+
+/// Prints the per-phase split of one solve.
+fn report(name: &str, p: &mut planner::plan::Planner<100>) {
     let info = p.solve(GuessKind::Equilibrium);
     eprintln!(
-        "oval: status {}, {} iterations, total {:.2} ms (evaluation {:.2}, factorization {:.2}, \
+        "{name}: status {}, {} iterations, total {:.2} ms (evaluation {:.2}, factorization {:.2}, \
          solve {:.2}, line search {:.2}), {:.3} ms per iteration",
         info.status.name(),
         info.iterations,
@@ -19,12 +38,6 @@ fn oval(c: &mut Criterion) {
         info.times.line_search * 1e3,
         info.times.total * 1e3 / info.iterations.max(1) as f64,
     );
-    let mut g = c.benchmark_group("solve");
-    g.sample_size(10);
-    g.bench_function("oval_equilibrium", |b| {
-        b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
-    });
-    g.finish();
 }
 
 criterion_group!(benches, oval);

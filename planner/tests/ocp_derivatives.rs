@@ -99,7 +99,7 @@ fn structures_are_valid() {
             assert!(seen.insert((r, c)), "duplicate Hessian entry ({r},{c})");
         }
         assert_eq!(p.n, 9 * (N + 1) + 3 * N);
-        let init = if fixed { 9 } else { 3 };
+        let init = 9; // all nine initial-condition rows in both modes
         let sat_rows = if sat { 2 * N } else { 0 };
         assert_eq!(p.m, init + 9 * N + 2 * N + sat_rows + 6 * (N - 1));
     }

@@ -29,13 +29,14 @@ fn rows_bounds_and_names() {
     let names = nlp.constraint_names();
     assert_eq!(names.len(), d.m);
     assert_eq!(names[0], "initial[s]@0");
-    assert_eq!(names[3], "defect[r]@0");
+    assert_eq!(names[8], "initial[e]@0");
+    assert_eq!(names[9], "defect[r]@0");
     assert_eq!(
-        nlp.describe_row(3 + 9).kind,
+        nlp.describe_row(9 + 9).kind,
         RowKind::Friction { at_next: false }
     );
     assert_eq!(
-        nlp.describe_row(3 + 11).kind,
+        nlp.describe_row(9 + 11).kind,
         RowKind::Saturation { rear: false }
     );
     // Stage 1 ends with the six rate rows.
@@ -70,7 +71,7 @@ fn rows_bounds_and_names() {
             "variable {i} fixed or empty: use equality rows"
         );
     }
-    assert!((gu[3 + 11] - 0.1).abs() < 1e-15); // eps_sat / 0.1
+    assert!((gu[9 + 11] - 0.1).abs() < 1e-15); // eps_sat / 0.1
 }
 
 #[test]

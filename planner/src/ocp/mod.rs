@@ -2,8 +2,10 @@
 //! scaling, and transcriptions that evaluate into preallocated buffers.
 
 pub(crate) mod ad;
+pub mod fast;
 #[doc(hidden)]
 pub mod fixtures;
+pub mod jet;
 pub mod layout;
 pub mod path_constraints;
 pub mod scaling;
@@ -13,6 +15,6 @@ pub mod transcription;
 pub use layout::Layout;
 pub use spec::{InitialState, OcpSpec};
 pub use transcription::{
-    DefectScheme, ImplicitEuler, ImplicitEulerNlp, RowInfo, RowKind, Transcription,
+    DefectScheme, Derivatives, ImplicitEuler, ImplicitEulerNlp, RowInfo, RowKind, Transcription,
     TranscriptionError,
 };

@@ -7,6 +7,7 @@
 //! pattern.
 
 use super::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
+use super::fast;
 use super::layout::Layout;
 use super::scaling::{FRICTION_SCALE, SATURATION_SCALE, U_NOMINAL, X_NOMINAL};
 use super::spec::{InitialState, OcpSpec};
@@ -33,20 +34,58 @@ pub const RATE_NNZ: usize = 4 * RATE_ROWS;
 const SAT_STATES: [usize; 5] = [ix::R, ix::V, ix::BETA, ix::VWR, ix::DFZ];
 const SAT_CONTROLS: [usize; 2] = [iu::DELTA, iu::TBF];
 
-/// States fixed by the initial-condition equality rows: Free -> s_0, t_0, dpsi_0;
-/// Fixed -> all nine.
-pub fn initial_states(spec: &OcpSpec) -> &'static [usize] {
-    match spec.initial {
-        InitialState::Free => &[ix::S, ix::T, ix::DPSI],
-        InitialState::Fixed(_) => &[0, 1, 2, 3, 4, 5, 6, 7, 8],
-    }
-}
+/// States of the initial-condition rows g = x_0[state], in row order. All nine rows are
+/// always present, so the constraint structure (and the solver's symbolic factorization) does
+/// not depend on the initial-state mode and [`crate::ocp::Transcription::set_initial`] only
+/// changes bounds. s_0, t_0 and dpsi_0 come first (equalities in both modes).
+pub const INITIAL_ROWS: [usize; NX] = [
+    ix::S,
+    ix::T,
+    ix::DPSI,
+    ix::R,
+    ix::V,
+    ix::BETA,
+    ix::VWR,
+    ix::DFZ,
+    ix::E,
+];
 
-/// Scaled target value of initial-condition state `i`.
-pub fn initial_target(spec: &OcpSpec, i: usize) -> f64 {
+/// Free-mode envelope of the initial rows of V, V_wr and e (already bounded as variables):
+/// |x_0[i]| <= 100 nominals (scaled units; e.g. |e_0| <= 100 m), never active.
+pub const FREE_ROW_ENVELOPE: f64 = 100.0;
+/// Free-mode envelope |r_0| <= 10 rad/s (physically never active).
+pub const FREE_R0_MAX: f64 = 10.0;
+/// Free-mode envelope |beta_0| <= 1.5 rad (physically never active).
+pub const FREE_BETA0_MAX: f64 = 1.5;
+
+/// Scaled bounds (g_l, g_u) of the initial-condition row of state `i`.
+///
+/// * Fixed(x0): every row is the equality x_0[i] = x0[i]; x_0 has no variable bounds (a
+///   fixed value on a variable bound would leave no interior).
+/// * Free (paper convention): s_0 = t_0 = dpsi_0 = 0 are equalities; x_0 has the same
+///   variable bounds as every other node (e_min[0] <= e_0 <= e_max[0], V, V_wr), and the
+///   other six rows are inactive inequality rows: |r_0| <= 10 rad/s, |beta_0| <= 1.5 rad,
+///   |dFz_0| <= m g, and |x_0[i]| <= [`FREE_ROW_ENVELOPE`] nominals for V, V_wr, e. They are
+///   not left at -inf..inf: the solver gives such a row a slack without any barrier term,
+///   whose zero curvature makes the condensed KKT dual diagonal -1/(sigma_s + delta_w)
+///   infinite when delta_w = 0. (Measured on the oval: 50 iterations, vs. 54 with the
+///   node-0 bounds moved onto these rows and 48 with only three initial rows.)
+pub fn initial_row_bounds(spec: &OcpSpec, i: usize) -> (f64, f64) {
     match spec.initial {
-        InitialState::Free => 0.0,
-        InitialState::Fixed(x0) => x0[i] / X_NOMINAL[i],
+        InitialState::Fixed(x0) => (x0[i] / X_NOMINAL[i], x0[i] / X_NOMINAL[i]),
+        InitialState::Free => match i {
+            ix::S | ix::T | ix::DPSI => (0.0, 0.0),
+            ix::R => (-FREE_R0_MAX / X_NOMINAL[i], FREE_R0_MAX / X_NOMINAL[i]),
+            ix::BETA => (
+                -FREE_BETA0_MAX / X_NOMINAL[i],
+                FREE_BETA0_MAX / X_NOMINAL[i],
+            ),
+            ix::DFZ => {
+                let w = spec.vehicle.m * spec.vehicle.g / X_NOMINAL[i];
+                (-w, w)
+            }
+            _ => (-FREE_ROW_ENVELOPE, FREE_ROW_ENVELOPE),
+        },
     }
 }
 
@@ -177,6 +216,44 @@ pub fn saturation_jac(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out:
         }
     }
 }
+
+/// Saturation Jacobian values in [`saturation_pattern`] order, by the fast structured path
+/// of [`crate::ocp::fast`].
+pub fn saturation_jac_fast(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
+    let s = fast::saturation_jacobian(p, &x, &u);
+    for row in 0..SATURATION_ROWS {
+        for l in 0..SATURATION_INPUTS {
+            out[row * SATURATION_INPUTS + l] = s[row].g[l] * SAT_NOMINAL[l] / SATURATION_SCALE;
+        }
+    }
+}
+
+/// Hessian of lambda_f g_f + lambda_r g_r in [`saturation_hess_pattern`] order by the fast
+/// structured path of [`crate::ocp::fast`] (overwrites `out`).
+pub fn saturation_hess_fast(
+    p: &VehicleParams,
+    lay: &Layout,
+    k: usize,
+    z: &[f64],
+    lambda: &[f64],
+    out: &mut [f64],
+) {
+    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
+    let w = [lambda[0] / SATURATION_SCALE, lambda[1] / SATURATION_SCALE];
+    fast::saturation_hessian(p, &x, &u, w).write_lower(&SAT_NOMINAL, out);
+}
+
+/// Nominal of each saturation input [r, V, beta, V_wr, dFz, delta, T_bf].
+const SAT_NOMINAL: [f64; SATURATION_INPUTS] = [
+    X_NOMINAL[ix::R],
+    X_NOMINAL[ix::V],
+    X_NOMINAL[ix::BETA],
+    X_NOMINAL[ix::VWR],
+    X_NOMINAL[ix::DFZ],
+    U_NOMINAL[iu::DELTA],
+    U_NOMINAL[iu::TBF],
+];
 
 /// Hessian pattern of the saturation rows of interval k: global (row >= col) pairs.
 pub fn saturation_hess_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {

@@ -5,6 +5,7 @@
 use super::{DefectScheme, SchemeContext};
 use crate::model::{ix, spatial_derivatives, time_derivatives, NU, NX, STATE_NAMES};
 use crate::ocp::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
+use crate::ocp::fast;
 use crate::ocp::layout::Layout;
 use crate::ocp::scaling::{U_NOMINAL, X_NOMINAL};
 use num_dual::DualNum;
@@ -85,18 +86,20 @@ impl DefectScheme for ImplicitEuler {
     }
 
     fn jac(&self, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
+        if cx.oracle {
+            return jac_oracle(cx, k, z, vals);
+        }
         let lay = &cx.layout;
-        let (x, u) = point(lay, k, z, seed1::<NIN>);
-        let f = spatial_derivatives(cx.vehicle, &x, &u, cx.kappa[k + 1]);
+        let (x, u) = point::<f64>(lay, k, z, |v, _| v);
+        let f = fast::defect_jacobian(cx.vehicle, &x, &u, cx.kappa[k + 1]);
         let mut p = 0;
         for i in 0..NX {
             vals[p] = -1.0;
             p += 1;
             if i != ix::S {
-                let g = grad(&f[i]);
                 let c = -cx.ds / X_NOMINAL[i];
-                for (l, gl) in g.iter().enumerate() {
-                    vals[p] = c * gl + if l == i && l < NXIN { 1.0 } else { 0.0 };
+                for (l, (gl, nl)) in f[i].g.iter().zip(&IN_NOMINAL).enumerate() {
+                    vals[p] = c * gl * nl + if l == i && l < NXIN { 1.0 } else { 0.0 };
                     p += 1;
                 }
             }
@@ -115,18 +118,70 @@ impl DefectScheme for ImplicitEuler {
     }
 
     fn hess(&self, cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
-        let lay = &cx.layout;
-        let (x, u) = point(lay, k, z, seed2::<NIN>);
-        // Only the -ds f / nominal part of each defect is nonlinear (ds/ds = 1 is constant).
-        // With f_i = xdot_i / sdot (i < 7) and f_t = 1 / sdot, the weighted sum is formed
-        // before the single division by sdot (fewer second-order dual operations).
-        let td = time_derivatives(cx.vehicle, &x, &u, cx.kappa[k + 1]);
-        let w = |i: usize| -cx.ds * lambda[i] / X_NOMINAL[i];
-        let mut acc = td.dxdt[0] * w(0);
-        for i in 1..NXIN {
-            acc += td.dxdt[i] * w(i);
+        if cx.oracle {
+            return hess_oracle(cx, k, z, lambda, vals);
         }
-        let phi = (acc + w(ix::T)) / td.sdot;
-        lower_hessian(&phi, vals);
+        let lay = &cx.layout;
+        let (x, u) = point::<f64>(lay, k, z, |v, _| v);
+        // Only the -ds f / nominal part of each defect is nonlinear (ds/ds = 1 is constant).
+        let w: [f64; NX] = std::array::from_fn(|i| -cx.ds * lambda[i] / X_NOMINAL[i]);
+        fast::defect_hessian(cx.vehicle, &x, &u, cx.kappa[k + 1], &w)
+            .write_lower(&IN_NOMINAL, vals);
     }
+}
+
+/// Nominal of each input of f (scaled z = physical / nominal).
+const IN_NOMINAL: [f64; NIN] = [
+    X_NOMINAL[0],
+    X_NOMINAL[1],
+    X_NOMINAL[2],
+    X_NOMINAL[3],
+    X_NOMINAL[4],
+    X_NOMINAL[5],
+    X_NOMINAL[6],
+    U_NOMINAL[0],
+    U_NOMINAL[1],
+    U_NOMINAL[2],
+];
+
+/// Defect Jacobian of interval k by num-dual first-order duals through the generic model
+/// (the oracle).
+fn jac_oracle(cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
+    let lay = &cx.layout;
+    let (x, u) = point(lay, k, z, seed1::<NIN>);
+    let f = spatial_derivatives(cx.vehicle, &x, &u, cx.kappa[k + 1]);
+    let mut p = 0;
+    for i in 0..NX {
+        vals[p] = -1.0;
+        p += 1;
+        if i != ix::S {
+            let g = grad(&f[i]);
+            let c = -cx.ds / X_NOMINAL[i];
+            for (l, gl) in g.iter().enumerate() {
+                vals[p] = c * gl + if l == i && l < NXIN { 1.0 } else { 0.0 };
+                p += 1;
+            }
+        }
+        if i >= NXIN {
+            vals[p] = 1.0;
+            p += 1;
+        }
+    }
+}
+
+/// Hessian of `lambda^T defect_k` by num-dual second-order duals through the generic model
+/// (the oracle).
+fn hess_oracle(cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
+    let lay = &cx.layout;
+    let (x, u) = point(lay, k, z, seed2::<NIN>);
+    // With f_i = xdot_i / sdot (i < 7) and f_t = 1 / sdot, the weighted sum is formed
+    // before the single division by sdot (fewer second-order dual operations).
+    let td = time_derivatives(cx.vehicle, &x, &u, cx.kappa[k + 1]);
+    let w = |i: usize| -cx.ds * lambda[i] / X_NOMINAL[i];
+    let mut acc = td.dxdt[0] * w(0);
+    for i in 1..NXIN {
+        acc += td.dxdt[i] * w(i);
+    }
+    let phi = (acc + w(ix::T)) / td.sdot;
+    lower_hessian(&phi, vals);
 }

@@ -21,10 +21,10 @@ pub mod implicit_euler;
 pub use implicit_euler::ImplicitEuler;
 
 use super::layout::Layout;
-use super::path_constraints::{self as pc, *};
+use super::path_constraints::*;
 use super::scaling::{scale_control, scale_state, unscale_control, unscale_state};
 use super::scaling::{OBJECTIVE_SCALE, SATURATION_SCALE, X_NOMINAL};
-use super::spec::OcpSpec;
+use super::spec::{InitialState, OcpSpec};
 use crate::ip::{Nlp, NlpDims};
 use crate::model::{ix, VehicleParams, CONTROL_NAMES, NU, NX, STATE_NAMES};
 use std::collections::HashMap;
@@ -40,6 +40,18 @@ pub struct SchemeContext<'a> {
     pub kappa: &'a [f64],
     /// Decision-vector layout.
     pub layout: Layout,
+    /// Evaluate derivatives with the num-dual oracle instead of the fast path.
+    pub oracle: bool,
+}
+
+/// Which implementation evaluates the exact Jacobian and Hessian.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Derivatives {
+    /// Structured hand-written jets of [`crate::ocp::fast`] (default).
+    #[default]
+    Fast,
+    /// num-dual duals through the generic model (the reference implementation).
+    Oracle,
 }
 
 /// The integrator-specific part of a transcription: the defect rows of one interval.
@@ -155,6 +167,7 @@ struct Stage {
 pub struct Transcription<S: DefectScheme, const N: usize> {
     spec: OcpSpec,
     scheme: S,
+    derivatives: Derivatives,
     layout: Layout,
     n_init: usize,
     m: usize,
@@ -226,13 +239,12 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         }
         let layout = Layout::new(N, S::STAGE_VARS);
         let sat = spec.enforce_tire_saturation;
-        let init = pc::initial_states(&spec);
-        let n_init = init.len();
+        let n_init = INITIAL_ROWS.len();
 
         let mut rows = Vec::new();
         let mut jac_rows = Vec::new();
         let mut jac_cols = Vec::new();
-        for &i in init {
+        for &i in &INITIAL_ROWS {
             rows.push(RowInfo {
                 kind: RowKind::Initial { state: i },
                 node: 0,
@@ -341,6 +353,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         let n = layout.n();
         let mut me = Self {
             scheme,
+            derivatives: Derivatives::Fast,
             layout,
             n_init,
             m,
@@ -363,13 +376,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             rows,
             spec,
         };
-        let (mut xl, mut xu, mut gl, mut gu) =
-            (vec![0.0; n], vec![0.0; n], vec![0.0; m], vec![0.0; m]);
-        me.compute_bounds(&mut xl, &mut xu, &mut gl, &mut gu);
-        me.x_l = xl;
-        me.x_u = xu;
-        me.g_l = gl;
-        me.g_u = gu;
+        me.refresh_bounds();
         me.default_guess();
         Ok(me)
     }
@@ -389,12 +396,23 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         &self.scheme
     }
 
+    /// Which implementation evaluates derivatives.
+    pub fn derivatives(&self) -> Derivatives {
+        self.derivatives
+    }
+
+    /// Selects the derivative implementation (fast path or num-dual oracle).
+    pub fn set_derivatives(&mut self, d: Derivatives) {
+        self.derivatives = d;
+    }
+
     fn context(&self) -> SchemeContext<'_> {
         SchemeContext {
             vehicle: &self.spec.vehicle,
             ds: self.spec.ds(),
             kappa: &self.spec.kappa,
             layout: self.layout,
+            oracle: self.derivatives == Derivatives::Oracle,
         }
     }
 
@@ -527,14 +545,62 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         (0..self.m).map(|i| self.row_name(i)).collect()
     }
 
+    /// Recomputes the variable and row bounds from the spec in place (allocation-free).
+    fn refresh_bounds(&mut self) {
+        let mut x_l = std::mem::take(&mut self.x_l);
+        let mut x_u = std::mem::take(&mut self.x_u);
+        let mut g_l = std::mem::take(&mut self.g_l);
+        let mut g_u = std::mem::take(&mut self.g_u);
+        self.compute_bounds(&mut x_l, &mut x_u, &mut g_l, &mut g_u);
+        self.x_l = x_l;
+        self.x_u = x_u;
+        self.g_l = g_l;
+        self.g_u = g_u;
+    }
+
+    /// Re-uses this instance for a new road of the same size: replaces k_ref, e_min and e_max
+    /// at the N + 1 nodes in the spec and updates the bounds. Allocation-free; the
+    /// constraint structure is unchanged (the solver reads bounds at the start of each
+    /// solve). On a length mismatch nothing is changed.
+    pub fn update_road(
+        &mut self,
+        kappa: &[f64],
+        e_min: &[f64],
+        e_max: &[f64],
+    ) -> Result<(), TranscriptionError> {
+        for (field, len) in [
+            ("kappa", kappa.len()),
+            ("e_min", e_min.len()),
+            ("e_max", e_max.len()),
+        ] {
+            if len != N + 1 {
+                return Err(TranscriptionError::BadLength {
+                    field,
+                    expected: N + 1,
+                    got: len,
+                });
+            }
+        }
+        self.spec.kappa.copy_from_slice(kappa);
+        self.spec.e_min.copy_from_slice(e_min);
+        self.spec.e_max.copy_from_slice(e_max);
+        self.refresh_bounds();
+        Ok(())
+    }
+
+    /// Switches the initial-state treatment (Free or Fixed(x0)) without changing the
+    /// constraint structure: all nine initial-condition rows always exist and only their
+    /// bounds change (see [`initial_row_bounds`]). Allocation-free.
+    pub fn set_initial(&mut self, initial: InitialState) {
+        self.spec.initial = initial;
+        self.refresh_bounds();
+    }
+
     fn compute_bounds(&self, x_l: &mut [f64], x_u: &mut [f64], g_l: &mut [f64], g_u: &mut [f64]) {
         let p = &self.spec.vehicle;
         variable_bounds(&self.layout, &self.spec, x_l, x_u);
-        let init = pc::initial_states(&self.spec);
-        for (r, &i) in init.iter().enumerate() {
-            let t = initial_target(&self.spec, i);
-            g_l[r] = t;
-            g_u[r] = t;
+        for (r, &i) in INITIAL_ROWS.iter().enumerate() {
+            (g_l[r], g_u[r]) = initial_row_bounds(&self.spec, i);
         }
         for (k, st) in self.stages.iter().enumerate() {
             g_l[st.row_defect..st.row_defect + S::ROWS].fill(0.0);
@@ -607,7 +673,7 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         let cx = self.context();
         let lay = &self.layout;
         let p = &self.spec.vehicle;
-        for (r, &i) in pc::initial_states(&self.spec).iter().enumerate() {
+        for (r, &i) in INITIAL_ROWS.iter().enumerate() {
             g[r] = x[lay.x(0, i)];
         }
         for (k, st) in self.stages.iter().enumerate() {
@@ -634,7 +700,11 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
                 .jac(&cx, k, x, &mut vals[st.jac_defect..st.jac_defect + len]);
             friction_jac(p, &mut vals[st.jac_friction..]);
             if self.spec.enforce_tire_saturation {
-                saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
+                if cx.oracle {
+                    saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
+                } else {
+                    saturation_jac_fast(p, lay, k, x, &mut vals[st.jac_sat..]);
+                }
             }
             if k >= 1 {
                 rate_jac(p, &mut vals[st.jac_rate..]);
@@ -651,6 +721,7 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
             ds: self.spec.ds(),
             kappa: &self.spec.kappa,
             layout: self.layout,
+            oracle: self.derivatives == Derivatives::Oracle,
         };
         let lay = &self.layout;
         let p = &self.spec.vehicle;
@@ -671,14 +742,13 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
             if self.spec.enforce_tire_saturation {
                 let slots =
                     &self.hess_sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
-                saturation_hess(
-                    p,
-                    lay,
-                    k,
-                    x,
-                    &lambda[st.row_sat..st.row_sat + SATURATION_ROWS],
-                    &mut scratch[..SATURATION_HESS_NNZ],
-                );
+                let lam = &lambda[st.row_sat..st.row_sat + SATURATION_ROWS];
+                let out = &mut scratch[..SATURATION_HESS_NNZ];
+                if cx.oracle {
+                    saturation_hess(p, lay, k, x, lam, out);
+                } else {
+                    saturation_hess_fast(p, lay, k, x, lam, out);
+                }
                 for (&s, &v) in slots.iter().zip(scratch.iter()) {
                     vals[s] += v;
                 }

@@ -1,0 +1,190 @@
+//! Re-using one transcription for a new planning problem of the same size:
+//! `update_road` and `set_initial` allocate nothing, leave the structure alone, give the
+//! bounds of a freshly built transcription, and a solve after the update equals a solve of
+//! a fresh instance.
+
+use std::path::Path;
+
+use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::guess;
+use planner::ip::{Nlp, Settings, Solver, Status};
+use planner::model::{NU, NX};
+use planner::ocp::{ImplicitEulerNlp, InitialState, OcpSpec, TranscriptionError};
+
+const N: usize = 100;
+
+fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"))
+}
+
+fn oval() -> (OcpSpec, Settings) {
+    let vehicle = load_vehicle(&root().join("vehicles/lc500.toml")).unwrap();
+    let spec = load_scenario(&root().join("scenarios/oval.toml"), None, vehicle).unwrap();
+    (spec, load_solver(&root().join("solver.toml")).unwrap())
+}
+
+/// A different road on the same grid: curvature scaled by 0.9, narrower and asymmetric
+/// lateral bounds.
+fn other_road(spec: &OcpSpec) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let kappa = spec.kappa.iter().map(|k| 0.9 * k).collect();
+    let e_min = (0..=N).map(|k| -3.5 + 0.002 * k as f64).collect();
+    let e_max = (0..=N).map(|k| 3.8 - 0.001 * k as f64).collect();
+    (kappa, e_min, e_max)
+}
+
+const X0: [f64; NX] = [0.0, 20.0, 0.0, 20.2, 0.0, 0.5, 0.0, 0.0, 0.0];
+
+struct Bounds {
+    xl: Vec<f64>,
+    xu: Vec<f64>,
+    gl: Vec<f64>,
+    gu: Vec<f64>,
+}
+
+fn bounds(nlp: &ImplicitEulerNlp<N>) -> Bounds {
+    let d = nlp.dims();
+    let mut b = Bounds {
+        xl: vec![0.0; d.n],
+        xu: vec![0.0; d.n],
+        gl: vec![0.0; d.m],
+        gu: vec![0.0; d.m],
+    };
+    nlp.bounds(&mut b.xl, &mut b.xu, &mut b.gl, &mut b.gu);
+    b
+}
+
+fn same_bounds(a: &ImplicitEulerNlp<N>, b: &ImplicitEulerNlp<N>) {
+    assert_eq!(a.dims(), b.dims());
+    let (x, y) = (bounds(a), bounds(b));
+    assert_eq!(x.xl, y.xl);
+    assert_eq!(x.xu, y.xu);
+    assert_eq!(x.gl, y.gl);
+    assert_eq!(x.gu, y.gu);
+    assert_eq!(a.spec(), b.spec());
+}
+
+#[test]
+fn update_and_set_initial_do_not_allocate() {
+    let (spec, _) = oval();
+    let mut nlp = ImplicitEulerNlp::<N>::new(spec.clone()).unwrap();
+    let (kappa, e_min, e_max) = other_road(&spec);
+    nlp.update_road(&kappa, &e_min, &e_max).unwrap(); // warm-up
+    let info = allocation_counter::measure(|| {
+        nlp.update_road(&spec.kappa, &spec.e_min, &spec.e_max)
+            .unwrap();
+        nlp.set_initial(InitialState::Fixed(X0));
+        nlp.update_road(&kappa, &e_min, &e_max).unwrap();
+        nlp.set_initial(InitialState::Free);
+        assert!(nlp.update_road(&kappa[1..], &e_min, &e_max).is_err());
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+    // A wrong length is reported and changes nothing.
+    let before = nlp.spec().clone();
+    assert!(matches!(
+        nlp.update_road(&kappa, &e_min[..N], &e_max),
+        Err(TranscriptionError::BadLength { field: "e_min", .. })
+    ));
+    assert_eq!(nlp.spec(), &before);
+}
+
+#[test]
+fn updated_instance_equals_fresh_build() {
+    let (spec, _) = oval();
+    let (kappa, e_min, e_max) = other_road(&spec);
+    let mut nlp = ImplicitEulerNlp::<N>::new(spec.clone()).unwrap();
+    let d = nlp.dims();
+    let structure = |nlp: &ImplicitEulerNlp<N>| {
+        let (mut jr, mut jc) = (vec![0; d.nnz_jac], vec![0; d.nnz_jac]);
+        nlp.jac_structure(&mut jr, &mut jc);
+        let (mut hr, mut hc) = (vec![0; d.nnz_hess], vec![0; d.nnz_hess]);
+        nlp.hess_structure(&mut hr, &mut hc);
+        (jr, jc, hr, hc)
+    };
+    let s0 = structure(&nlp);
+    for initial in [
+        InitialState::Fixed(X0),
+        InitialState::Free,
+        InitialState::Fixed(X0),
+    ] {
+        nlp.update_road(&kappa, &e_min, &e_max).unwrap();
+        nlp.set_initial(initial);
+        let mut fresh = spec.clone();
+        fresh.kappa.clone_from(&kappa);
+        fresh.e_min.clone_from(&e_min);
+        fresh.e_max.clone_from(&e_max);
+        fresh.initial = initial;
+        let fresh = ImplicitEulerNlp::<N>::new(fresh).unwrap();
+        same_bounds(&nlp, &fresh);
+        assert!(structure(&nlp) == s0 && structure(&fresh) == s0);
+    }
+    // Free mode: s_0, t_0, dpsi_0 are the only equalities among the initial rows, the
+    // others finite inactive envelopes; e_0 has its node-0 variable bounds. Fixed: x_0 is
+    // not variable-bounded.
+    nlp.set_initial(InitialState::Free);
+    let b = bounds(&nlp);
+    let eq: Vec<bool> = (0..NX).map(|r| b.gl[r] == b.gu[r]).collect();
+    assert_eq!(
+        eq,
+        [true, true, true, false, false, false, false, false, false]
+    );
+    let lay = nlp.layout();
+    assert_eq!((b.xl[lay.x(0, 5)], b.xu[lay.x(0, 5)]), (e_min[0], e_max[0])); // e nominal 1 m
+    assert!((0..NX).all(|r| b.gl[r].is_finite() && b.gu[r].is_finite()));
+    nlp.set_initial(InitialState::Fixed(X0));
+    let b = bounds(&nlp);
+    assert!((0..NX).all(|i| b.xl[i].is_infinite() && b.xu[i].is_infinite()));
+}
+
+/// Solves `nlp` with `solver` from the equilibrium guess.
+fn solve(
+    solver: &mut Solver,
+    nlp: &mut ImplicitEulerNlp<N>,
+    eq: &guess::Equilibrium,
+) -> (planner::ip::SolveInfo, Vec<f64>) {
+    let mut xs = vec![[0.0; NX]; N + 1];
+    let mut us = vec![[0.0; NU]; N];
+    let fixed = match nlp.spec().initial {
+        InitialState::Fixed(x0) => Some(x0),
+        InitialState::Free => None,
+    };
+    guess::fill_equilibrium(eq, nlp.spec().ds(), fixed.as_ref(), &mut xs, &mut us);
+    nlp.set_initial_guess(&xs, &us);
+    let info = solver.solve(nlp);
+    (info, solver.x().to_vec())
+}
+
+#[test]
+fn solve_after_update_equals_fresh_solve() {
+    let (spec, settings) = oval();
+    let (kappa, e_min, e_max) = other_road(&spec);
+    let eq = guess::equilibrium(&spec.vehicle, spec.v_min, spec.v_max, 15.0).unwrap();
+
+    // One instance and solver: the original problem, then the new road with a fixed x_0.
+    let mut nlp = ImplicitEulerNlp::<N>::new(spec.clone()).unwrap();
+    let mut solver = Solver::new(&nlp, settings).unwrap();
+    let (first, _) = solve(&mut solver, &mut nlp, &eq);
+    assert_eq!(first.status, Status::Optimal);
+    for initial in [InitialState::Free, InitialState::Fixed(X0)] {
+        nlp.update_road(&kappa, &e_min, &e_max).unwrap();
+        nlp.set_initial(initial);
+        let (a, za) = solve(&mut solver, &mut nlp, &eq);
+
+        let mut fresh = spec.clone();
+        fresh.kappa.clone_from(&kappa);
+        fresh.e_min.clone_from(&e_min);
+        fresh.e_max.clone_from(&e_max);
+        fresh.initial = initial;
+        let mut nlp_b = ImplicitEulerNlp::<N>::new(fresh).unwrap();
+        let mut solver_b = Solver::new(&nlp_b, settings).unwrap();
+        let (b, zb) = solve(&mut solver_b, &mut nlp_b, &eq);
+        println!(
+            "{initial:?}: {} its, t_N objective {:.6}, status {:?}",
+            a.iterations, a.objective, a.status
+        );
+        assert_eq!(a.status, Status::Optimal, "{a:?}");
+        assert_eq!((a.status, a.iterations), (b.status, b.iterations));
+        for (x, y) in za.iter().zip(&zb) {
+            assert_eq!(x.to_bits(), y.to_bits());
+        }
+    }
+}

@@ -145,7 +145,7 @@ impl SparseLdlt {
             b: vec![0.0; dim],
             resid: vec![0.0; dim],
             factorized: false,
-            refine_steps: 3,
+            refine_steps: 1,
         })
     }
 

@@ -15,5 +15,6 @@ pub mod model;
 pub mod ocp;
 pub mod plan;
 pub mod plot;
+pub mod record;
 pub mod track;
 pub mod trajectory;

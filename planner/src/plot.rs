@@ -49,7 +49,7 @@ fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
 }
 
 /// Registers the bundled font once per process; later calls return the first outcome.
-fn ensure_font() -> Result<(), PlotError> {
+pub fn ensure_font() -> Result<(), PlotError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         register_font(

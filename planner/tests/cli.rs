@@ -82,3 +82,53 @@ fn bad_input_gives_a_clear_error_and_nonzero_exit() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("S99") && err.contains("S01"), "{err}");
 }
+
+#[test]
+fn solve_record_writes_a_replayable_mcap() {
+    let dir = std::env::temp_dir().join(format!("trajopt-record-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("oval.mcap");
+    let out = trajopt()
+        .args([
+            "solve",
+            "--json",
+            "--no-output",
+            "--repeat",
+            "2",
+            "--record",
+        ])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["recording"]["inputs"], 2);
+    assert_eq!(v["recording"]["outputs"], 2);
+    assert_eq!(v["recording"]["dropped"], 0);
+    let rec = plan_record::Recording::read(&file).unwrap();
+    assert_eq!(rec.inputs.len(), 2);
+    assert_eq!(rec.outputs[1].status, v["status"].as_str().unwrap());
+    assert_eq!(
+        rec.outputs[1].iterations as u64,
+        v["iterations"].as_u64().unwrap()
+    );
+    assert_eq!(rec.inputs[0].scenario, "oval");
+    assert!(!rec.inputs[0].initial_state_fixed);
+    // An unwritable path is bad input: exit 2 before solving.
+    let out = trajopt()
+        .args([
+            "solve",
+            "--no-output",
+            "--record",
+            "/nonexistent-dir/x.mcap",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent-dir/x.mcap"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -2,13 +2,15 @@
 //!
 //! `trajopt solve` solves one scenario (the oval by default) from the equilibrium or zero
 //! guess, prints a summary (stderr with `--json`, whose single JSON object goes to stdout),
-//! and writes the trajectory as CSV and a PNG figure. Exit code 0 when the solve ran,
-//! whatever its status; 2 on bad input.
+//! and writes the trajectory as CSV and a PNG figure; `--record FILE.mcap` records every
+//! solve's input and output for `replay`. Exit code 0 when the solve ran, whatever its
+//! status; 2 on bad input.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use plan_record::{now_ns, Record, Recorder};
 use planner::config::{load_scenario, load_solver, load_vehicle};
 use planner::guess::GuessKind;
 use planner::ip::{BarrierRule, SolveInfo};
@@ -94,6 +96,9 @@ struct SolveArgs {
     /// Print the solver's iteration log (last solve) to stderr.
     #[arg(long)]
     log: bool,
+    /// Record every solve's input and output to this MCAP file (`replay run FILE` replays it).
+    #[arg(long, value_name = "FILE.mcap")]
+    record: Option<PathBuf>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -182,17 +187,58 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         ));
     }
     let saturation = spec.enforce_tire_saturation;
+    let input = planner::record::plan_input(&spec, &settings, guess, 0, 0);
     let mut planner = Planner::<N>::new(spec, settings).map_err(|e| e.to_string())?;
+    let recorder = match &args.record {
+        // Room for every record: a CLI run drops nothing (the queue stays bounded).
+        Some(path) => {
+            Some(Recorder::create(path, (2 * args.repeat).min(4096)).map_err(|e| e.to_string())?)
+        }
+        None => None,
+    };
 
     let mut times = Vec::with_capacity(args.repeat);
     let mut info: Option<SolveInfo> = None;
-    for _ in 0..args.repeat {
+    for seq in 0..args.repeat as u64 {
+        let stamp = now_ns();
         let i = planner.solve(guess);
         times.push(i.times.total * 1e3);
+        if let Some(rec) = &recorder {
+            let mut inp = input.clone();
+            inp.seq = seq;
+            inp.stamp_ns = stamp;
+            rec.record(Record::Input(Box::new(inp)));
+            let out = planner::record::plan_output(
+                seq,
+                now_ns(),
+                &i,
+                planner.states(),
+                planner.controls(),
+            );
+            rec.record(Record::Output(Box::new(out)));
+        }
         info = Some(i);
     }
     let Some(info) = info else {
         return Err("no solve ran".into());
+    };
+    let recording = match (recorder, &args.record) {
+        (Some(rec), Some(path)) => {
+            let stats = rec.finish().map_err(|e| e.to_string())?;
+            if stats.dropped > 0 {
+                eprintln!(
+                    "trajopt: warning: recorder dropped {} records",
+                    stats.dropped
+                );
+            }
+            serde_json::json!({
+                "file": path.display().to_string(),
+                "inputs": stats.inputs,
+                "outputs": stats.outputs,
+                "dropped": stats.dropped,
+            })
+        }
+        _ => serde_json::Value::Null,
     };
     if args.log {
         eprintln!("iter  objective      inf_pr    inf_du    compl     mu        alpha     delta_w  nf bt step");
@@ -292,6 +338,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "equilibrium": eq,
             "worst_rows": worst.iter().map(|(r, v)| serde_json::json!({"row": r, "violation": v})).collect::<Vec<_>>(),
             "files": files_txt,
+            "recording": recording,
         });
         println!("{obj}");
     } else {
@@ -304,6 +351,9 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         }
         for f in &files_txt {
             println!("  wrote {f}");
+        }
+        if let Some(path) = &args.record {
+            println!("  recorded {} ({recording})", path.display());
         }
     }
     Ok(())

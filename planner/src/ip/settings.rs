@@ -1,10 +1,10 @@
 //! Solver settings: tolerances, caps on every loop, and the barrier rule. Loaded from
 //! `config/solver.toml` (all keys optional; unknown keys are rejected).
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Barrier parameter update rule (paper Sec. VI-C, Table IV).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum BarrierRule {
     /// Fiacco-McCormick: fixed mu until the barrier subproblem is solved, then decrease
@@ -52,7 +52,7 @@ impl BarrierRule {
 }
 
 /// How steps are accepted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Globalization {
     /// Filter line search on (violation, barrier objective) (Waechter & Biegler 2006).
@@ -63,7 +63,7 @@ pub enum Globalization {
 }
 
 /// Tolerances, caps and algorithm choices of the interior-point solver.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Settings {
     /// Overall (scaled) KKT tolerance for `optimal`.

@@ -1,0 +1,323 @@
+//! Conversions between the planner's types and the flight-recorder records of
+//! [`plan_record`]: what a solve acted on ([`plan_input`]) and produced ([`plan_output`]),
+//! and back ([`problem_from`]) so a replay rebuilds the exact same problem.
+
+use plan_record::{
+    config_hash, PlanInput, PlanOutput, CONTROL_LEN, SETTINGS_FIELDS, SETTINGS_LEN, STATE_LEN,
+    VEHICLE_LEN,
+};
+
+use crate::guess::GuessKind;
+use crate::ip::{BarrierRule, Globalization, Settings, SolveInfo};
+use crate::model::{VehicleParams, NU, NX};
+use crate::ocp::{InitialState, OcpSpec};
+
+const _: () = assert!(NX == STATE_LEN && NU == CONTROL_LEN);
+
+/// Why a recorded input does not describe a valid problem.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RecordError {
+    /// A field is out of its domain.
+    #[error("recorded input {seq}: field `{field}`: {problem}")]
+    Invalid {
+        /// The input's seq.
+        seq: u64,
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// The vehicle as the recorded array (field order of `plan_record::VEHICLE_FIELDS`).
+pub fn vehicle_to_array(p: &VehicleParams) -> [f64; VEHICLE_LEN] {
+    [
+        p.m,
+        p.l,
+        p.a,
+        p.b,
+        p.h_cg,
+        p.i_z,
+        p.g,
+        p.r_w,
+        p.i_w,
+        p.c_f,
+        p.c_r,
+        p.mu,
+        p.c_l,
+        p.delta_max,
+        p.t_comb_max,
+        p.t_comb_min,
+        p.t_bf_min,
+        p.t_bf_max,
+        p.v_wr_min,
+        p.delta_rate_max,
+        p.t_comb_rate_max,
+        p.t_bf_rate_max,
+        p.eps_sigma,
+        p.eps_sat,
+        p.fmax_floor_frac,
+    ]
+}
+
+/// The vehicle from the recorded array.
+pub fn vehicle_from_array(v: &[f64; VEHICLE_LEN]) -> VehicleParams {
+    let [m, l, a, b, h_cg, i_z, g, r_w, i_w, c_f, c_r, mu, c_l, delta_max, t_comb_max, t_comb_min, t_bf_min, t_bf_max, v_wr_min, delta_rate_max, t_comb_rate_max, t_bf_rate_max, eps_sigma, eps_sat, fmax_floor_frac] =
+        *v;
+    VehicleParams {
+        m,
+        l,
+        a,
+        b,
+        h_cg,
+        i_z,
+        g,
+        r_w,
+        i_w,
+        c_f,
+        c_r,
+        mu,
+        c_l,
+        delta_max,
+        t_comb_max,
+        t_comb_min,
+        t_bf_min,
+        t_bf_max,
+        v_wr_min,
+        delta_rate_max,
+        t_comb_rate_max,
+        t_bf_rate_max,
+        eps_sigma,
+        eps_sat,
+        fmax_floor_frac,
+    }
+}
+
+fn barrier_index(b: BarrierRule) -> f64 {
+    match b {
+        BarrierRule::Monotone => 0.0,
+        BarrierRule::Fullmpc => 1.0,
+        BarrierRule::Dampmpc => 2.0,
+        BarrierRule::Loqo => 3.0,
+    }
+}
+
+/// The settings as the recorded array (integers, enum indices, booleans as exact f64).
+pub fn settings_to_array(s: &Settings) -> [f64; SETTINGS_LEN] {
+    [
+        s.tol,
+        s.constr_viol_tol,
+        s.dual_inf_tol,
+        s.compl_inf_tol,
+        s.acceptable_tol,
+        s.acceptable_constr_viol_tol,
+        s.max_iter as f64,
+        s.max_time_s,
+        s.max_backtracks as f64,
+        s.max_inertia_corrections as f64,
+        s.max_ls_failures as f64,
+        s.max_restoration_steps as f64,
+        barrier_index(s.barrier),
+        match s.globalization {
+            Globalization::Filter => 0.0,
+            Globalization::Merit => 1.0,
+        },
+        s.mu_floor_factor,
+        s.mu_init,
+        s.mu_min,
+        s.bound_push,
+        s.bound_frac,
+        s.bound_relax,
+        s.tau_min,
+        s.armijo,
+        if s.second_order_correction { 1.0 } else { 0.0 },
+        s.penalty_init,
+        s.delta_w_init,
+        s.delta_w_max,
+        s.delta_c_min,
+        s.infeas_stat_tol,
+    ]
+}
+
+/// An exact integer in 0..=max stored as f64, or the name of the offending field.
+fn int_field(v: &[f64; SETTINGS_LEN], i: usize, max: usize) -> Result<usize, (usize, String)> {
+    let x = v[i];
+    if x.fract() == 0.0 && x >= 0.0 && x <= max as f64 {
+        Ok(x as usize)
+    } else {
+        Err((i, format!("{x} is not an integer in 0..={max}")))
+    }
+}
+
+/// The settings from the recorded array; errors give the index of the bad entry.
+fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, String)> {
+    let barrier = match int_field(v, 12, 3)? {
+        0 => BarrierRule::Monotone,
+        1 => BarrierRule::Fullmpc,
+        2 => BarrierRule::Dampmpc,
+        _ => BarrierRule::Loqo,
+    };
+    let globalization = match int_field(v, 13, 1)? {
+        0 => Globalization::Filter,
+        _ => Globalization::Merit,
+    };
+    Ok(Settings {
+        tol: v[0],
+        constr_viol_tol: v[1],
+        dual_inf_tol: v[2],
+        compl_inf_tol: v[3],
+        acceptable_tol: v[4],
+        acceptable_constr_viol_tol: v[5],
+        max_iter: int_field(v, 6, 1_000_000)?,
+        max_time_s: v[7],
+        max_backtracks: int_field(v, 8, 1_000_000)?,
+        max_inertia_corrections: int_field(v, 9, 1_000_000)?,
+        max_ls_failures: int_field(v, 10, 1_000_000)?,
+        max_restoration_steps: int_field(v, 11, 1_000_000)?,
+        barrier,
+        globalization,
+        mu_floor_factor: v[14],
+        mu_init: v[15],
+        mu_min: v[16],
+        bound_push: v[17],
+        bound_frac: v[18],
+        bound_relax: v[19],
+        tau_min: v[20],
+        armijo: v[21],
+        second_order_correction: int_field(v, 22, 1)? == 1,
+        penalty_init: v[23],
+        delta_w_init: v[24],
+        delta_w_max: v[25],
+        delta_c_min: v[26],
+        infeas_stat_tol: v[27],
+    })
+}
+
+/// The record of what a solve acts on (allocates; build it outside the solve).
+pub fn plan_input(
+    spec: &OcpSpec,
+    settings: &Settings,
+    guess: GuessKind,
+    seq: u64,
+    stamp_ns: u64,
+) -> PlanInput {
+    let vehicle = vehicle_to_array(&spec.vehicle);
+    let settings_arr = settings_to_array(settings);
+    let (fixed, x0) = match spec.initial {
+        InitialState::Fixed(x0) => (true, x0),
+        InitialState::Free => (false, [0.0; NX]),
+    };
+    PlanInput {
+        seq,
+        stamp_ns,
+        scenario: spec.name.clone(),
+        guess: guess.name().into(),
+        n_intervals: u32::try_from(spec.n_intervals).unwrap_or(u32::MAX),
+        length_m: spec.length,
+        v_min_mps: spec.v_min,
+        v_max_mps: spec.v_max,
+        enforce_tire_saturation: spec.enforce_tire_saturation,
+        initial_state_fixed: fixed,
+        x0,
+        kappa: spec.kappa.clone(),
+        e_min: spec.e_min.clone(),
+        e_max: spec.e_max.clone(),
+        vehicle,
+        settings: settings_arr,
+        config_hash: config_hash(&vehicle, &settings_arr),
+        settings_json: serde_json::to_string(settings).unwrap_or_default(),
+    }
+}
+
+/// The record of what a solve produced (allocates; build it outside the solve).
+pub fn plan_output(
+    seq: u64,
+    stamp_ns: u64,
+    info: &SolveInfo,
+    states: &[[f64; NX]],
+    controls: &[[f64; NU]],
+) -> PlanOutput {
+    let sat = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+    PlanOutput {
+        seq,
+        stamp_ns,
+        status: info.status.name().into(),
+        iterations: sat(info.iterations),
+        objective: info.objective,
+        max_violation: info.max_violation,
+        t_final_s: states.last().map_or(0.0, |x| x[crate::model::ix::T]),
+        factorizations: sat(info.factorizations),
+        evaluations: sat(info.evaluations),
+        time_evaluation_s: info.times.evaluation,
+        time_factorization_s: info.times.factorization,
+        time_solve_s: info.times.solve,
+        time_line_search_s: info.times.line_search,
+        time_total_s: info.times.total,
+        states: states.to_vec(),
+        controls: controls.to_vec(),
+    }
+}
+
+/// Rebuilds the problem, settings and guess a recorded input describes, bit for bit.
+pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, GuessKind), RecordError> {
+    let bad = |field: &'static str, problem: String| RecordError::Invalid {
+        seq: input.seq,
+        field,
+        problem,
+    };
+    let hash = config_hash(&input.vehicle, &input.settings);
+    if hash != input.config_hash {
+        return Err(bad(
+            "config_hash",
+            format!(
+                "{:#018x} does not match the recorded vehicle and settings ({hash:#018x})",
+                input.config_hash
+            ),
+        ));
+    }
+    let n = input.n_intervals as usize;
+    if n == 0 {
+        return Err(bad("n_intervals", "must be at least 1".into()));
+    }
+    for (field, v) in [
+        ("kappa", &input.kappa),
+        ("e_min", &input.e_min),
+        ("e_max", &input.e_max),
+    ] {
+        if v.len() != n + 1 {
+            return Err(bad(
+                field,
+                format!("{} values, expected n_intervals + 1 = {}", v.len(), n + 1),
+            ));
+        }
+    }
+    let guess = GuessKind::parse(&input.guess).ok_or_else(|| {
+        bad(
+            "guess",
+            format!("`{}` is not equilibrium or zero", input.guess),
+        )
+    })?;
+    let settings =
+        settings_from_array(&input.settings).map_err(|(i, p)| bad(SETTINGS_FIELDS[i], p))?;
+    settings
+        .validate()
+        .map_err(|e| bad(e.field, format!("{}: {}", e.value, e.expected)))?;
+    let spec = OcpSpec {
+        name: input.scenario.clone(),
+        n_intervals: n,
+        length: input.length_m,
+        kappa: input.kappa.clone(),
+        e_min: input.e_min.clone(),
+        e_max: input.e_max.clone(),
+        v_min: input.v_min_mps,
+        v_max: input.v_max_mps,
+        enforce_tire_saturation: input.enforce_tire_saturation,
+        initial: if input.initial_state_fixed {
+            InitialState::Fixed(input.x0)
+        } else {
+            InitialState::Free
+        },
+        vehicle: vehicle_from_array(&input.vehicle),
+    };
+    Ok((spec, settings, guess))
+}

@@ -1,0 +1,21 @@
+//! Flight recorder of the planner: what each solve acted on ([`PlanInput`]) and what it
+//! produced ([`PlanOutput`]), as plain structs, written to MCAP by a writer thread behind a
+//! bounded queue ([`Recorder`]) and read back with full validation ([`Recording`]).
+//!
+//! Messages are CDR with `ros2msg` schemas ([`schema`]), so Foxglove decodes and plots them,
+//! and every f64 is stored as its raw IEEE-754 bits, so replay reproduces inputs exactly.
+//! This crate does not depend on the planner: any process (the `trajopt` CLI, the IPC
+//! planner) can record, and `planner::record` converts between these structs and its types.
+
+pub mod cdr;
+mod msg;
+mod reader;
+mod recorder;
+pub mod schema;
+
+pub use msg::{
+    config_hash, first_difference, PlanInput, PlanOutput, CONTROL_LEN, CONTROL_NAMES,
+    SETTINGS_FIELDS, SETTINGS_LEN, STATE_LEN, STATE_NAMES, VEHICLE_FIELDS, VEHICLE_LEN,
+};
+pub use reader::{ChannelInfo, ReadError, Recording, MAX_FILE_BYTES};
+pub use recorder::{now_ns, Record, RecordError, RecordStats, Recorder, METADATA_NAME};

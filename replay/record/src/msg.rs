@@ -1,0 +1,215 @@
+//! The recorded messages: plain structs with public fields.
+
+/// States per node (r, V, beta, V_wr, dFz, e, dpsi, s, t).
+pub const STATE_LEN: usize = 9;
+/// Controls per interval (delta, T_comb, T_bf).
+pub const CONTROL_LEN: usize = 3;
+/// Names of the state columns of [`PlanOutput::states`] (CDR field names).
+pub const STATE_NAMES: [&str; STATE_LEN] = ["r", "v", "beta", "v_wr", "dfz", "e", "dpsi", "s", "t"];
+/// Names of the control columns of [`PlanOutput::controls`] (CDR field names).
+pub const CONTROL_NAMES: [&str; CONTROL_LEN] = ["delta", "t_comb", "t_bf"];
+
+/// Vehicle parameters per input, in [`VEHICLE_FIELDS`] order.
+pub const VEHICLE_LEN: usize = 25;
+/// Order of [`PlanInput::vehicle`] (the fields of `planner::model::VehicleParams`).
+pub const VEHICLE_FIELDS: [&str; VEHICLE_LEN] = [
+    "m",
+    "l",
+    "a",
+    "b",
+    "h_cg",
+    "i_z",
+    "g",
+    "r_w",
+    "i_w",
+    "c_f",
+    "c_r",
+    "mu",
+    "c_l",
+    "delta_max",
+    "t_comb_max",
+    "t_comb_min",
+    "t_bf_min",
+    "t_bf_max",
+    "v_wr_min",
+    "delta_rate_max",
+    "t_comb_rate_max",
+    "t_bf_rate_max",
+    "eps_sigma",
+    "eps_sat",
+    "fmax_floor_frac",
+];
+
+/// Solver settings per input, in [`SETTINGS_FIELDS`] order.
+pub const SETTINGS_LEN: usize = 28;
+/// Order of [`PlanInput::settings`] (the fields of `planner::ip::Settings`; integers, enum
+/// indices and booleans stored as exact f64).
+pub const SETTINGS_FIELDS: [&str; SETTINGS_LEN] = [
+    "tol",
+    "constr_viol_tol",
+    "dual_inf_tol",
+    "compl_inf_tol",
+    "acceptable_tol",
+    "acceptable_constr_viol_tol",
+    "max_iter",
+    "max_time_s",
+    "max_backtracks",
+    "max_inertia_corrections",
+    "max_ls_failures",
+    "max_restoration_steps",
+    "barrier",
+    "globalization",
+    "mu_floor_factor",
+    "mu_init",
+    "mu_min",
+    "bound_push",
+    "bound_frac",
+    "bound_relax",
+    "tau_min",
+    "armijo",
+    "second_order_correction",
+    "penalty_init",
+    "delta_w_init",
+    "delta_w_max",
+    "delta_c_min",
+    "infeas_stat_tol",
+];
+
+/// Everything one solve acted on: the problem (road, bounds, initial state, vehicle) and
+/// the solver configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanInput {
+    /// Planning cycle number; the matching [`PlanOutput`] has the same value.
+    pub seq: u64,
+    /// When the cycle started [ns since the Unix epoch]; the MCAP log time.
+    pub stamp_ns: u64,
+    /// Scenario or segment name.
+    pub scenario: String,
+    /// Initial guess (`equilibrium` or `zero`).
+    pub guess: String,
+    /// Number of intervals N.
+    pub n_intervals: u32,
+    /// Horizon length [m].
+    pub length_m: f64,
+    /// Speed lower bound [m/s].
+    pub v_min_mps: f64,
+    /// Speed upper bound [m/s].
+    pub v_max_mps: f64,
+    /// Tire saturation constraints on.
+    pub enforce_tire_saturation: bool,
+    /// True when `x0` is the fixed initial state (vehicle state); false: paper's free start.
+    pub initial_state_fixed: bool,
+    /// Initial vehicle state (zeros when free).
+    pub x0: [f64; STATE_LEN],
+    /// Reference curvature at every node [1/m] (N + 1 values).
+    pub kappa: Vec<f64>,
+    /// Right lateral bound at every node [m].
+    pub e_min: Vec<f64>,
+    /// Left lateral bound at every node [m].
+    pub e_max: Vec<f64>,
+    /// Vehicle parameters in [`VEHICLE_FIELDS`] order.
+    pub vehicle: [f64; VEHICLE_LEN],
+    /// Solver settings in [`SETTINGS_FIELDS`] order.
+    pub settings: [f64; SETTINGS_LEN],
+    /// [`config_hash`] of `vehicle` and `settings` (checked on read).
+    pub config_hash: u64,
+    /// The settings as JSON, for people (replay uses `settings`).
+    pub settings_json: String,
+}
+
+/// What one solve produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanOutput {
+    /// Planning cycle number of the input.
+    pub seq: u64,
+    /// When the solve ended [ns since the Unix epoch]; the MCAP log time.
+    pub stamp_ns: u64,
+    /// Solver status name (`optimal`, `acceptable`, ...).
+    pub status: String,
+    /// Iterations taken.
+    pub iterations: u32,
+    /// Objective at the returned point.
+    pub objective: f64,
+    /// Max constraint violation at the returned point.
+    pub max_violation: f64,
+    /// Final time t_N [s].
+    pub t_final_s: f64,
+    /// KKT factorizations.
+    pub factorizations: u32,
+    /// Function evaluations.
+    pub evaluations: u32,
+    /// Evaluation time [s].
+    pub time_evaluation_s: f64,
+    /// Factorization time [s].
+    pub time_factorization_s: f64,
+    /// Back-substitution time [s].
+    pub time_solve_s: f64,
+    /// Line-search time [s].
+    pub time_line_search_s: f64,
+    /// Total solve time [s].
+    pub time_total_s: f64,
+    /// States x_0..x_N.
+    pub states: Vec<[f64; STATE_LEN]>,
+    /// Controls u_0..u_{N-1}.
+    pub controls: Vec<[f64; CONTROL_LEN]>,
+}
+
+/// FNV-1a 64 over the raw bits of the vehicle parameters and the settings.
+pub fn config_hash(vehicle: &[f64; VEHICLE_LEN], settings: &[f64; SETTINGS_LEN]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for v in vehicle.iter().chain(settings.iter()) {
+        for b in v.to_bits().to_le_bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// The first way two outputs differ in what the solver decides (status, iterations,
+/// every state and control bit), or `None` when they are bit-identical; timings and
+/// stamps are ignored.
+pub fn first_difference(recorded: &PlanOutput, replayed: &PlanOutput) -> Option<String> {
+    if recorded.status != replayed.status {
+        return Some(format!("status {} vs {}", recorded.status, replayed.status));
+    }
+    if recorded.iterations != replayed.iterations {
+        return Some(format!(
+            "iterations {} vs {}",
+            recorded.iterations, replayed.iterations
+        ));
+    }
+    if recorded.states.len() != replayed.states.len()
+        || recorded.controls.len() != replayed.controls.len()
+    {
+        return Some("trajectory lengths differ".into());
+    }
+    for (k, (a, b)) in recorded.states.iter().zip(&replayed.states).enumerate() {
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            if x.to_bits() != y.to_bits() {
+                return Some(format!("state {}[{k}]: {x:e} vs {y:e}", STATE_NAMES[i]));
+            }
+        }
+    }
+    for (k, (a, b)) in recorded.controls.iter().zip(&replayed.controls).enumerate() {
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            if x.to_bits() != y.to_bits() {
+                return Some(format!("control {}[{k}]: {x:e} vs {y:e}", CONTROL_NAMES[i]));
+            }
+        }
+    }
+    let scalars = [
+        ("objective", recorded.objective, replayed.objective),
+        (
+            "max_violation",
+            recorded.max_violation,
+            replayed.max_violation,
+        ),
+    ];
+    for (name, x, y) in scalars {
+        if x.to_bits() != y.to_bits() {
+            return Some(format!("{name} {x:e} vs {y:e}"));
+        }
+    }
+    None
+}

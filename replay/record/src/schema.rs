@@ -1,0 +1,78 @@
+//! Topics, schema names and the `ros2msg` schema texts of the recorded channels.
+
+/// Topic of the planner inputs.
+pub const INPUT_TOPIC: &str = "/planner/input";
+/// Topic of the planner outputs.
+pub const OUTPUT_TOPIC: &str = "/planner/output";
+/// Schema name of [`crate::PlanInput`].
+pub const PLAN_INPUT_NAME: &str = "trajopt_msgs/msg/PlanInput";
+/// Schema name of [`crate::PlanOutput`].
+pub const PLAN_OUTPUT_NAME: &str = "trajopt_msgs/msg/PlanOutput";
+/// Schema encoding of both channels.
+pub const SCHEMA_ENCODING: &str = "ros2msg";
+/// Message encoding of both channels.
+pub const MESSAGE_ENCODING: &str = "cdr";
+
+/// `ros2msg` text of [`crate::PlanInput`] (field order = CDR order).
+pub const PLAN_INPUT_MSG: &str = "\
+# Everything one planner solve acted on. Doubles are stored bit-exactly (CDR float64).
+uint64 seq
+uint64 stamp_ns
+string scenario
+string guess
+uint32 n_intervals
+float64 length_m
+float64 v_min_mps
+float64 v_max_mps
+bool enforce_tire_saturation
+bool initial_state_fixed
+# initial vehicle state [r, V, beta, V_wr, dFz, e, dpsi, s, t]
+float64[9] x0
+# road at the N+1 nodes
+float64[] kappa
+float64[] e_min
+float64[] e_max
+# m l a b h_cg i_z g r_w i_w c_f c_r mu c_l delta_max t_comb_max t_comb_min t_bf_min t_bf_max
+# v_wr_min delta_rate_max t_comb_rate_max t_bf_rate_max eps_sigma eps_sat fmax_floor_frac
+float64[25] vehicle
+# tol constr_viol_tol dual_inf_tol compl_inf_tol acceptable_tol acceptable_constr_viol_tol
+# max_iter max_time_s max_backtracks max_inertia_corrections max_ls_failures
+# max_restoration_steps barrier globalization mu_floor_factor mu_init mu_min bound_push
+# bound_frac bound_relax tau_min armijo second_order_correction penalty_init delta_w_init
+# delta_w_max delta_c_min infeas_stat_tol
+float64[28] settings
+# FNV-1a 64 of the bits of vehicle and settings
+uint64 config_hash
+string settings_json
+";
+
+/// `ros2msg` text of [`crate::PlanOutput`] (field order = CDR order).
+pub const PLAN_OUTPUT_MSG: &str = "\
+# What one planner solve produced; one float64[] per state and control over the nodes.
+uint64 seq
+uint64 stamp_ns
+string status
+uint32 iterations
+float64 objective
+float64 max_violation
+float64 t_final_s
+uint32 factorizations
+uint32 evaluations
+float64 time_evaluation_s
+float64 time_factorization_s
+float64 time_solve_s
+float64 time_line_search_s
+float64 time_total_s
+float64[] r
+float64[] v
+float64[] beta
+float64[] v_wr
+float64[] dfz
+float64[] e
+float64[] dpsi
+float64[] s
+float64[] t
+float64[] delta
+float64[] t_comb
+float64[] t_bf
+";

@@ -1,0 +1,204 @@
+//! `replay`: replay planner recordings (MCAP) for determinism, latency and jitter.
+//!
+//! `replay run FILE` re-solves every recorded input on a pinned core; `replay info FILE`
+//! summarises a file; `replay record-oval` records a 10 Hz replanning drive on the oval.
+//! Exit code 0 on success, 1 when a replayed output differs from the recorded one, 2 on
+//! bad input (unreadable or damaged file, bad options).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use plan_record::Recording;
+use replay::oval::{record_oval, OvalOptions};
+use replay::run::{run, RunOptions};
+
+#[derive(Parser, Debug)]
+#[command(name = "replay", version, about = "Replay planner recordings (MCAP)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Re-solve every recorded input: determinism, latency, jitter, deadline misses.
+    Run {
+        /// The recording.
+        file: PathBuf,
+        /// Deadline per solve [ms].
+        #[arg(long, default_value_t = 100.0)]
+        budget_ms: f64,
+        /// Core to pin the solver thread to (default: the last core).
+        #[arg(long)]
+        core: Option<usize>,
+        /// Print exactly one JSON object on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Also include every plan in the JSON.
+        #[arg(long)]
+        per_plan: bool,
+        /// Write a latency figure (PNG).
+        #[arg(long, value_name = "OUT.png")]
+        plot: Option<PathBuf>,
+    },
+    /// Summarise a recording: channels, counts, duration, drops.
+    Info {
+        /// The recording.
+        file: PathBuf,
+        /// Print exactly one JSON object on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Record a replanning drive along the oval (stand-in for the IPC planner process).
+    RecordOval {
+        /// Number of plans.
+        #[arg(long, default_value_t = 100)]
+        plans: usize,
+        /// Replanning rate [Hz].
+        #[arg(long, default_value_t = 10.0)]
+        rate_hz: f64,
+        /// Output file.
+        #[arg(long, default_value = "out/oval_drive.mcap")]
+        out: PathBuf,
+        /// Scenario file (the oval).
+        #[arg(long, default_value = "config/scenarios/oval.toml")]
+        scenario: PathBuf,
+        /// Vehicle file.
+        #[arg(long, default_value = "config/vehicles/lc500.toml")]
+        vehicle: PathBuf,
+        /// Solver settings file.
+        #[arg(long, default_value = "config/solver.toml")]
+        solver: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dispatch(cli.command) {
+        Ok(code) => code,
+        Err(msg) => {
+            eprintln!("replay: error: {msg}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// A default path relative to the working directory, or else to the repository this
+/// binary was built from.
+fn resolve(path: &Path) -> PathBuf {
+    if path.exists() || path.is_absolute() {
+        return path.to_path_buf();
+    }
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path);
+    if repo.exists() {
+        repo
+    } else {
+        path.to_path_buf()
+    }
+}
+
+fn read(file: &Path) -> Result<Recording, String> {
+    Recording::read(file).map_err(|e| format!("{}: {e}", file.display()))
+}
+
+fn dispatch(command: Command) -> Result<ExitCode, String> {
+    match command {
+        Command::Run {
+            file,
+            budget_ms,
+            core,
+            json,
+            per_plan,
+            plot,
+        } => {
+            let rec = read(&file)?;
+            let mut report = run(&rec, RunOptions { budget_ms, core })
+                .map_err(|e| format!("{}: {e}", file.display()))?;
+            if let Some(png) = &plot {
+                replay::plot::plot_latency(&report, png).map_err(|e| e.to_string())?;
+            }
+            if json {
+                eprint!("{report}");
+                let differing: Vec<_> = report
+                    .per_plan
+                    .iter()
+                    .filter(|p| p.identical == Some(false))
+                    .cloned()
+                    .collect();
+                let deterministic = report.deterministic;
+                if !per_plan {
+                    report.per_plan = differing;
+                }
+                let mut v = serde_json::to_value(&report).map_err(|e| e.to_string())?;
+                v["file"] = file.display().to_string().into();
+                v["plot"] = plot.map(|p| p.display().to_string()).into();
+                v["recorder_dropped"] = rec.dropped().into();
+                println!("{v}");
+                return Ok(exit(deterministic || report.different == 0));
+            }
+            print!("{report}");
+            if let Some(d) = rec.dropped().filter(|d| *d > 0) {
+                println!("recorder dropped {d} records while recording");
+            }
+            if let Some(png) = &plot {
+                println!("wrote {}", png.display());
+            }
+            Ok(exit(report.different == 0))
+        }
+        Command::Info { file, json } => {
+            let rec = read(&file)?;
+            let info = replay::info::info(&rec);
+            if json {
+                let mut v = serde_json::to_value(&info).map_err(|e| e.to_string())?;
+                v["file"] = file.display().to_string().into();
+                println!("{v}");
+            } else {
+                print!("{}: {info}", file.display());
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::RecordOval {
+            plans,
+            rate_hz,
+            out,
+            scenario,
+            vehicle,
+            solver,
+        } => {
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
+            }
+            let opts = OvalOptions {
+                scenario: resolve(&scenario),
+                vehicle: resolve(&vehicle),
+                solver: resolve(&solver),
+                plans,
+                rate_hz,
+                out: out.clone(),
+            };
+            let summary = record_oval(&opts, |i, ms, status| {
+                eprintln!("plan {i:3}: {status} in {ms:.1} ms");
+            })
+            .map_err(|e| e.to_string())?;
+            let ok = summary.statuses.iter().filter(|s| **s == "optimal").count();
+            println!(
+                "recorded {} inputs and {} outputs to {} ({} dropped); {ok} of {plans} optimal",
+                summary.stats.inputs,
+                summary.stats.outputs,
+                out.display(),
+                summary.stats.dropped
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+fn exit(deterministic: bool) -> ExitCode {
+    if deterministic {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}

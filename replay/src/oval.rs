@@ -1,0 +1,216 @@
+//! `replay record-oval`: a 10 Hz replanning drive along the oval, recorded with the
+//! [`plan_record::Recorder`] (a stand-in for the IPC planner process until it exists).
+//!
+//! The oval is solved once from a free start; plan i then starts at the state that
+//! trajectory reaches at t = i / rate (linear interpolation between nodes), with that
+//! state fixed (s and t reset to 0) and the road ahead taken from the exact piecewise
+//! curvature shifted by its arc length, wrapping around the lap.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use plan_record::{now_ns, Record, RecordStats, Recorder};
+use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::guess::GuessKind;
+use planner::model::{ix, NX};
+use planner::ocp::{InitialState, OcpSpec};
+use planner::plan::Planner;
+use planner::record::{plan_input, plan_output};
+use planner::track::piecewise_constant;
+
+use crate::N;
+
+/// What to record.
+#[derive(Debug, Clone)]
+pub struct OvalOptions {
+    /// Scenario file (the oval).
+    pub scenario: PathBuf,
+    /// Vehicle file.
+    pub vehicle: PathBuf,
+    /// Solver settings file.
+    pub solver: PathBuf,
+    /// Number of plans.
+    pub plans: usize,
+    /// Replanning rate [Hz].
+    pub rate_hz: f64,
+    /// Output file.
+    pub out: PathBuf,
+}
+
+/// Why the drive could not be recorded.
+#[derive(Debug, thiserror::Error)]
+pub enum OvalError {
+    /// A config file is invalid.
+    #[error(transparent)]
+    Config(#[from] planner::config::ConfigError),
+    /// The scenario file lacks the oval's exact curvature.
+    #[error("{file}: field `{field}`: {problem}")]
+    Track {
+        /// The file.
+        file: PathBuf,
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The options are out of range.
+    #[error("{0}")]
+    Options(String),
+    /// A planner could not be built.
+    #[error(transparent)]
+    Plan(#[from] planner::plan::PlanError),
+    /// The first (free-start) lap did not solve.
+    #[error("the free-start lap ended {0}; cannot drive along it")]
+    Lap(&'static str),
+    /// The recorder failed.
+    #[error(transparent)]
+    Record(#[from] plan_record::RecordError),
+}
+
+/// What was recorded.
+#[derive(Debug, Clone)]
+pub struct OvalSummary {
+    /// Recorder counts.
+    pub stats: RecordStats,
+    /// Solve latency per plan while recording [ms].
+    pub latency_ms: Vec<f64>,
+    /// Status per plan.
+    pub statuses: Vec<&'static str>,
+}
+
+struct Track {
+    pieces: Vec<(f64, f64)>,
+    lap: f64,
+}
+
+fn read_track(path: &Path) -> Result<Track, OvalError> {
+    let bad = |field, problem: String| OvalError::Track {
+        file: path.to_path_buf(),
+        field,
+        problem,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad("file", e.to_string()))?;
+    let v: toml::Table = toml::from_str(&text).map_err(|e| bad("file", e.to_string()))?;
+    let lap = v
+        .get("geometry")
+        .and_then(|g| g.get("lap_length_m"))
+        .and_then(toml::Value::as_float)
+        .filter(|l| *l > 0.0)
+        .ok_or_else(|| bad("geometry.lap_length_m", "missing or not positive".into()))?;
+    let raw = v
+        .get("track")
+        .and_then(|t| t.get("kappa_pieces"))
+        .and_then(toml::Value::as_array)
+        .ok_or_else(|| bad("track.kappa_pieces", "missing".into()))?;
+    let mut pieces = Vec::with_capacity(raw.len());
+    for (i, p) in raw.iter().enumerate() {
+        let pair = p
+            .as_array()
+            .filter(|a| a.len() == 2)
+            .and_then(|a| {
+                let f = |x: &toml::Value| x.as_float().or(x.as_integer().map(|i| i as f64));
+                Some((f(&a[0])?, f(&a[1])?))
+            })
+            .ok_or_else(|| bad("track.kappa_pieces", format!("entry {i} is not [s, kappa]")))?;
+        pieces.push(pair);
+    }
+    Ok(Track { pieces, lap })
+}
+
+/// The planned state at time t (linear between nodes), or None past the end.
+fn state_at(xs: &[[f64; NX]], t: f64) -> Option<[f64; NX]> {
+    let k = xs.windows(2).position(|w| w[1][ix::T] >= t)?;
+    let (a, b) = (&xs[k], &xs[k + 1]);
+    let w = ((t - a[ix::T]) / (b[ix::T] - a[ix::T])).clamp(0.0, 1.0);
+    let mut x = [0.0; NX];
+    for i in 0..NX {
+        x[i] = a[i] + w * (b[i] - a[i]);
+    }
+    Some(x)
+}
+
+/// The problem of plan i: start state fixed, road ahead from arc length s0.
+fn shifted_spec(base: &OcpSpec, track: &Track, s0: f64, x: [f64; NX]) -> OcpSpec {
+    let mut spec = base.clone();
+    let ds = base.ds();
+    for (k, kappa) in spec.kappa.iter_mut().enumerate() {
+        *kappa = piecewise_constant(&track.pieces, (s0 + k as f64 * ds).rem_euclid(track.lap));
+    }
+    let mut x0 = x;
+    x0[ix::S] = 0.0;
+    x0[ix::T] = 0.0;
+    spec.initial = InitialState::Fixed(x0);
+    spec.name = format!("oval@{s0:.1}m");
+    spec
+}
+
+/// Records the drive; `progress` is called after each plan with (i, latency_ms, status).
+pub fn record_oval(
+    opts: &OvalOptions,
+    mut progress: impl FnMut(usize, f64, &str),
+) -> Result<OvalSummary, OvalError> {
+    if opts.plans == 0 || !(opts.rate_hz > 0.0 && opts.rate_hz.is_finite()) {
+        return Err(OvalError::Options(
+            "--plans must be at least 1 and --rate-hz positive".into(),
+        ));
+    }
+    let vehicle = load_vehicle(&opts.vehicle)?;
+    let base = load_scenario(&opts.scenario, None, vehicle)?;
+    if base.n_intervals != N {
+        return Err(OvalError::Options(format!(
+            "scenario has n_intervals = {}, this build solves N = {N}",
+            base.n_intervals
+        )));
+    }
+    let settings = load_solver(&opts.solver)?;
+    let track = read_track(&opts.scenario)?;
+    let guess = GuessKind::Equilibrium;
+
+    let mut lap = Planner::<N>::new(base.clone(), settings)?;
+    let info = lap.solve(guess);
+    if !info.status.is_success() {
+        return Err(OvalError::Lap(info.status.name()));
+    }
+    let xs = lap.states().to_vec();
+    let t_end = xs.last().map_or(0.0, |x| x[ix::T]);
+    let dt = 1.0 / opts.rate_hz;
+    if (opts.plans - 1) as f64 * dt > t_end {
+        return Err(OvalError::Options(format!(
+            "{} plans at {} Hz need {:.1} s, the planned lap lasts {t_end:.2} s",
+            opts.plans,
+            opts.rate_hz,
+            (opts.plans - 1) as f64 * dt
+        )));
+    }
+
+    let recorder = Recorder::create(&opts.out, 64)?;
+    let start = now_ns();
+    let mut latency_ms = Vec::with_capacity(opts.plans);
+    let mut statuses = Vec::with_capacity(opts.plans);
+    for i in 0..opts.plans {
+        let t = i as f64 * dt;
+        let x = state_at(&xs, t)
+            .ok_or_else(|| OvalError::Options(format!("t = {t} s past the lap")))?;
+        let spec = shifted_spec(&base, &track, x[ix::S], x);
+        // Stamps on the drive's 10 Hz clock, so the file's duration is the drive's.
+        let stamp = start + (t * 1e9).round() as u64;
+        let input = plan_input(&spec, &settings, guess, i as u64, stamp);
+        let mut planner = Planner::<N>::new(spec, settings)?;
+        let t0 = Instant::now();
+        let info = planner.solve(guess);
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let done = stamp + (ms * 1e6) as u64;
+        let output = plan_output(i as u64, done, &info, planner.states(), planner.controls());
+        recorder.record(Record::Input(Box::new(input)));
+        recorder.record(Record::Output(Box::new(output)));
+        latency_ms.push(ms);
+        statuses.push(info.status.name());
+        progress(i, ms, info.status.name());
+    }
+    let stats = recorder.finish()?;
+    Ok(OvalSummary {
+        stats,
+        latency_ms,
+        statuses,
+    })
+}

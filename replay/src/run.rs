@@ -1,0 +1,386 @@
+//! `replay run`: re-solve every recorded input on a pinned core; determinism, latency,
+//! jitter, iterations, time per phase and deadline misses.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use plan_record::{first_difference, PlanOutput, Recording};
+use planner::plan::Planner;
+use planner::record::{plan_output, problem_from};
+use serde::Serialize;
+
+use crate::stats::{latency, Latency, StatsError};
+use crate::N;
+
+/// How to replay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunOptions {
+    /// Deadline per solve [ms] (10 Hz: 100 ms).
+    pub budget_ms: f64,
+    /// Core to pin the solver thread to; None: the last core.
+    pub core: Option<usize>,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            budget_ms: 100.0,
+            core: None,
+        }
+    }
+}
+
+/// Why a replay could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The recording has no planner inputs.
+    #[error("the recording has no planner inputs (/planner/input messages)")]
+    NoInputs,
+    /// An input does not describe a valid problem.
+    #[error(transparent)]
+    Input(#[from] planner::record::RecordError),
+    /// The input's horizon is not the compiled N.
+    #[error("recorded input {seq}: n_intervals = {n}, this build replays N = {N}")]
+    Horizon {
+        /// Input seq.
+        seq: u64,
+        /// Its N.
+        n: usize,
+    },
+    /// The planner could not be built for an input.
+    #[error("recorded input {seq}: {source}")]
+    Plan {
+        /// Input seq.
+        seq: u64,
+        /// Why.
+        source: planner::plan::PlanError,
+    },
+    /// The requested core does not exist.
+    #[error("core {core} does not exist (this machine has {available})")]
+    Core {
+        /// Requested core.
+        core: usize,
+        /// How many there are.
+        available: usize,
+    },
+    /// The budget is not a positive number.
+    #[error("--budget-ms must be a positive number, got {0}")]
+    Budget(f64),
+    /// The solver thread failed.
+    #[error("replay thread: {0}")]
+    Thread(String),
+    /// Statistics failed.
+    #[error(transparent)]
+    Stats(#[from] StatsError),
+}
+
+/// One replayed plan.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanResult {
+    /// Input seq.
+    pub seq: u64,
+    /// Scenario name.
+    pub scenario: String,
+    /// Wall-clock latency of the replayed solve [ms].
+    pub latency_ms: f64,
+    /// Total solve time when it was recorded [ms] (None: no output recorded).
+    pub recorded_ms: Option<f64>,
+    /// Status of the replayed solve.
+    pub status: String,
+    /// Iterations of the replayed solve.
+    pub iterations: u32,
+    /// Evaluation, factorization, solve, line-search time [ms].
+    pub phases_ms: [f64; 4],
+    /// Bit-identical to the recorded output (None: no output recorded).
+    pub identical: Option<bool>,
+    /// The first difference when not identical.
+    pub difference: Option<String>,
+    /// Latency above the budget.
+    pub missed: bool,
+}
+
+/// Mean and max of one solver phase [ms].
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Phase {
+    /// Phase name.
+    pub name: &'static str,
+    /// Mean per solve.
+    pub mean_ms: f64,
+    /// Max per solve.
+    pub max_ms: f64,
+    /// Share of the summed phase times.
+    pub share: f64,
+}
+
+/// The replay report.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport {
+    /// Plans replayed.
+    pub plans: usize,
+    /// Core the solver thread was pinned to (None: pinning failed).
+    pub pinned_core: Option<usize>,
+    /// Deadline [ms].
+    pub budget_ms: f64,
+    /// Solves over the deadline.
+    pub deadline_misses: usize,
+    /// Outputs bit-identical to the recorded ones.
+    pub identical: usize,
+    /// Outputs that differ.
+    pub different: usize,
+    /// Inputs without a recorded output.
+    pub unverified: usize,
+    /// True when every output was recorded and is bit-identical.
+    pub deterministic: bool,
+    /// Replayed latency.
+    pub latency: Latency,
+    /// Latency when recorded (solver's total time), if outputs were recorded.
+    pub recorded_latency: Option<Latency>,
+    /// Iterations: min, median, max.
+    pub iterations: [u32; 3],
+    /// Statuses and their counts.
+    pub statuses: Vec<(String, usize)>,
+    /// Time per phase.
+    pub phases: Vec<Phase>,
+    /// Every plan.
+    pub per_plan: Vec<PlanResult>,
+}
+
+/// Replays every input of a recording on a pinned solver thread.
+pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> {
+    if !(opts.budget_ms > 0.0 && opts.budget_ms.is_finite()) {
+        return Err(ReplayError::Budget(opts.budget_ms));
+    }
+    if rec.inputs.is_empty() {
+        return Err(ReplayError::NoInputs);
+    }
+    let cores = core_affinity::get_core_ids().unwrap_or_default();
+    let core = match opts.core {
+        Some(c) if c >= cores.len() => {
+            return Err(ReplayError::Core {
+                core: c,
+                available: cores.len(),
+            })
+        }
+        Some(c) => cores.get(c).copied(),
+        None => cores.last().copied(),
+    };
+    let outputs: HashMap<u64, &PlanOutput> = rec.outputs.iter().map(|o| (o.seq, o)).collect();
+    let per_plan = std::thread::scope(|s| {
+        s.spawn(|| {
+            let pinned = core
+                .filter(|c| core_affinity::set_for_current(*c))
+                .map(|c| c.id);
+            replay_all(rec, &outputs, opts.budget_ms).map(|r| (pinned, r))
+        })
+        .join()
+        .map_err(|_| ReplayError::Thread("solver thread panicked".into()))
+    })??;
+    let (pinned_core, per_plan) = per_plan;
+    report(per_plan, pinned_core, opts.budget_ms)
+}
+
+fn replay_all(
+    rec: &Recording,
+    outputs: &HashMap<u64, &PlanOutput>,
+    budget_ms: f64,
+) -> Result<Vec<PlanResult>, ReplayError> {
+    let mut results = Vec::with_capacity(rec.inputs.len());
+    for input in &rec.inputs {
+        let (spec, settings, guess) = problem_from(input)?;
+        if spec.n_intervals != N {
+            return Err(ReplayError::Horizon {
+                seq: input.seq,
+                n: spec.n_intervals,
+            });
+        }
+        let mut planner =
+            Planner::<N>::new(spec, settings).map_err(|source| ReplayError::Plan {
+                seq: input.seq,
+                source,
+            })?;
+        let t0 = Instant::now();
+        let info = planner.solve(guess);
+        let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let replayed = plan_output(input.seq, 0, &info, planner.states(), planner.controls());
+        let recorded = outputs.get(&input.seq);
+        let difference = recorded.and_then(|r| first_difference(r, &replayed));
+        results.push(PlanResult {
+            seq: input.seq,
+            scenario: input.scenario.clone(),
+            latency_ms,
+            recorded_ms: recorded.map(|r| r.time_total_s * 1e3),
+            status: replayed.status.clone(),
+            iterations: replayed.iterations,
+            phases_ms: [
+                info.times.evaluation * 1e3,
+                info.times.factorization * 1e3,
+                info.times.solve * 1e3,
+                info.times.line_search * 1e3,
+            ],
+            identical: recorded.map(|_| difference.is_none()),
+            difference,
+            missed: latency_ms > budget_ms,
+        });
+    }
+    Ok(results)
+}
+
+fn to_ns(ms: f64) -> u64 {
+    (ms * 1e6).round().max(1.0) as u64
+}
+
+fn report(
+    per_plan: Vec<PlanResult>,
+    pinned_core: Option<usize>,
+    budget_ms: f64,
+) -> Result<RunReport, ReplayError> {
+    let lat: Vec<u64> = per_plan.iter().map(|p| to_ns(p.latency_ms)).collect();
+    let recorded: Vec<u64> = per_plan
+        .iter()
+        .filter_map(|p| p.recorded_ms.map(to_ns))
+        .collect();
+    let mut its: Vec<u32> = per_plan.iter().map(|p| p.iterations).collect();
+    its.sort_unstable();
+    let mut statuses: Vec<(String, usize)> = Vec::new();
+    for p in &per_plan {
+        match statuses.iter_mut().find(|(s, _)| *s == p.status) {
+            Some((_, c)) => *c += 1,
+            None => statuses.push((p.status.clone(), 1)),
+        }
+    }
+    let n = per_plan.len().max(1) as f64;
+    let names = ["evaluation", "factorization", "solve", "line_search"];
+    let total: f64 = per_plan.iter().flat_map(|p| p.phases_ms).sum();
+    let phases = names
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let sum: f64 = per_plan.iter().map(|p| p.phases_ms[i]).sum();
+            Phase {
+                name,
+                mean_ms: sum / n,
+                max_ms: per_plan.iter().map(|p| p.phases_ms[i]).fold(0.0, f64::max),
+                share: if total > 0.0 { sum / total } else { 0.0 },
+            }
+        })
+        .collect();
+    let identical = per_plan
+        .iter()
+        .filter(|p| p.identical == Some(true))
+        .count();
+    let different = per_plan
+        .iter()
+        .filter(|p| p.identical == Some(false))
+        .count();
+    let unverified = per_plan.iter().filter(|p| p.identical.is_none()).count();
+    Ok(RunReport {
+        plans: per_plan.len(),
+        pinned_core,
+        budget_ms,
+        deadline_misses: per_plan.iter().filter(|p| p.missed).count(),
+        identical,
+        different,
+        unverified,
+        deterministic: different == 0 && unverified == 0,
+        latency: latency(&lat)?,
+        recorded_latency: if recorded.is_empty() {
+            None
+        } else {
+            Some(latency(&recorded)?)
+        },
+        iterations: [
+            its.first().copied().unwrap_or(0),
+            its.get(its.len() / 2).copied().unwrap_or(0),
+            its.last().copied().unwrap_or(0),
+        ],
+        statuses,
+        phases,
+        per_plan,
+    })
+}
+
+impl std::fmt::Display for RunReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let l = &self.latency;
+        writeln!(
+            f,
+            "replayed {} plans on core {}",
+            self.plans,
+            self.pinned_core
+                .map_or("(not pinned)".to_string(), |c| c.to_string())
+        )?;
+        writeln!(
+            f,
+            "determinism: {} bit-identical, {} different, {} without a recorded output -> {}",
+            self.identical,
+            self.different,
+            self.unverified,
+            if self.deterministic {
+                "DETERMINISTIC"
+            } else {
+                "NOT VERIFIED"
+            }
+        )?;
+        writeln!(
+            f,
+            "latency [ms]: p50 {:.2}  p90 {:.2}  p99 {:.2}  p99.9 {:.2}  max {:.2}  (min {:.2}, mean {:.2})",
+            l.p50_ms, l.p90_ms, l.p99_ms, l.p999_ms, l.max_ms, l.min_ms, l.mean_ms
+        )?;
+        writeln!(
+            f,
+            "jitter [ms]: max - p50 {:.2}, std dev {:.2}",
+            l.jitter_ms, l.stdev_ms
+        )?;
+        if let Some(r) = &self.recorded_latency {
+            writeln!(
+                f,
+                "as recorded [ms]: p50 {:.2}  p99 {:.2}  max {:.2}",
+                r.p50_ms, r.p99_ms, r.max_ms
+            )?;
+        }
+        writeln!(
+            f,
+            "deadline misses: {} of {} over {:.1} ms",
+            self.deadline_misses, self.plans, self.budget_ms
+        )?;
+        let st: Vec<String> = self
+            .statuses
+            .iter()
+            .map(|(s, c)| format!("{s} {c}"))
+            .collect();
+        writeln!(
+            f,
+            "iterations: min {} median {} max {}; status: {}",
+            self.iterations[0],
+            self.iterations[1],
+            self.iterations[2],
+            st.join(", ")
+        )?;
+        write!(f, "time per phase [ms, mean / max / share]:")?;
+        for p in &self.phases {
+            write!(
+                f,
+                " {} {:.2}/{:.2}/{:.0}%",
+                p.name,
+                p.mean_ms,
+                p.max_ms,
+                p.share * 100.0
+            )?;
+        }
+        writeln!(f)?;
+        for p in self
+            .per_plan
+            .iter()
+            .filter(|p| p.identical == Some(false))
+            .take(5)
+        {
+            writeln!(
+                f,
+                "  plan {} differs: {}",
+                p.seq,
+                p.difference.as_deref().unwrap_or("?")
+            )?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,147 @@
+//! Record a drive, replay it: bit-identical outputs, a latency report, the CLI contract.
+
+mod common;
+
+use std::process::Command;
+
+use plan_record::{PlanOutput, Record, Recorder, Recording};
+use planner::record::{plan_input, problem_from};
+use replay::run::{run, RunOptions};
+
+#[test]
+fn recorded_drive_replays_bit_identically_with_a_latency_report() {
+    let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    assert_eq!(rec.inputs.len(), 2);
+    assert_eq!(rec.outputs.len(), 2);
+    assert_eq!(rec.dropped(), Some(0));
+    // 10 Hz clock: the second plan is logged 100 ms after the first.
+    assert_eq!(rec.inputs[1].stamp_ns - rec.inputs[0].stamp_ns, 100_000_000);
+    let report = run(&rec, RunOptions::default()).unwrap();
+    assert!(report.deterministic, "{report}");
+    assert_eq!(
+        (report.identical, report.different, report.unverified),
+        (2, 0, 0)
+    );
+    assert_eq!(report.latency.count, 2);
+    let l = report.latency;
+    assert!(
+        l.p50_ms > 0.0 && l.p50_ms <= l.p99_ms && l.p99_ms <= l.max_ms,
+        "{l:?}"
+    );
+    assert!((l.jitter_ms - (l.max_ms - l.p50_ms)).abs() < 1e-9);
+    assert!(report.iterations[0] > 0);
+    assert_eq!(report.phases.len(), 4);
+    assert!(
+        report.per_plan.iter().all(|p| p.status == "optimal"),
+        "{report}"
+    );
+}
+
+#[test]
+fn a_changed_output_bit_is_reported_as_a_difference() {
+    let mut rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    // Flip the lowest mantissa bit of one recorded speed.
+    let v = &mut rec.outputs[1].states[50][1];
+    *v = f64::from_bits(v.to_bits() ^ 1);
+    let report = run(&rec, RunOptions::default()).unwrap();
+    assert!(!report.deterministic);
+    assert_eq!((report.identical, report.different), (1, 1));
+    let diff = report.per_plan[1].difference.as_deref().unwrap();
+    assert!(diff.contains("state v[50]"), "{diff}");
+}
+
+#[test]
+fn inputs_round_trip_bit_exactly_through_the_file() {
+    let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    for input in &rec.inputs {
+        let (spec, settings, guess) = problem_from(input).unwrap();
+        let again = plan_input(&spec, &settings, guess, input.seq, input.stamp_ns);
+        assert_eq!(&again, input);
+        assert_eq!(again.config_hash, input.config_hash);
+    }
+    // A damaged config hash is caught before solving.
+    let mut bad = rec.inputs[0].clone();
+    bad.settings[0] = f64::from_bits(bad.settings[0].to_bits() ^ 1);
+    let e = problem_from(&bad).unwrap_err().to_string();
+    assert!(e.contains("config_hash"), "{e}");
+}
+
+#[test]
+fn recorder_never_blocks_and_counts_every_drop() {
+    let d = common::temp_dir("flood");
+    let f = d.join("flood.mcap");
+    let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    let out: PlanOutput = rec.outputs[0].clone();
+    let r = Recorder::create(&f, 1).unwrap();
+    let total = 2000u64;
+    let mut sent = 0;
+    for i in 0..total {
+        let mut o = out.clone();
+        o.seq = i;
+        if r.record(Record::Output(Box::new(o))) {
+            sent += 1;
+        }
+    }
+    assert_eq!(sent + r.dropped(), total);
+    let stats = r.finish().unwrap();
+    assert_eq!(stats.outputs, sent);
+    assert_eq!(stats.dropped, total - sent);
+    let back = Recording::read(&f).unwrap();
+    assert_eq!(back.outputs.len() as u64, sent);
+    assert_eq!(back.dropped(), Some(total - sent));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn cli_run_json_and_info() {
+    let d = common::temp_dir("cli");
+    let f = d.join("two.mcap");
+    std::fs::write(&f, common::valid_bytes()).unwrap();
+    let png = d.join("latency.png");
+    let out = Command::new(env!("CARGO_BIN_EXE_replay"))
+        .args(["run", "--json", "--budget-ms", "1000", "--plot"])
+        .arg(&png)
+        .arg(&f)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["deterministic"], true);
+    assert_eq!(v["plans"], 2);
+    for k in [
+        "p50_ms",
+        "p90_ms",
+        "p99_ms",
+        "p999_ms",
+        "max_ms",
+        "jitter_ms",
+        "stdev_ms",
+    ] {
+        assert!(v["latency"][k].as_f64().unwrap() > 0.0, "{k}: {v}");
+    }
+    assert!(v["deadline_misses"].is_u64());
+    assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+
+    let out = Command::new(env!("CARGO_BIN_EXE_replay"))
+        .args(["info", "--json"])
+        .arg(&f)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["inputs"], 2);
+    assert_eq!(v["channels"][0]["topic"], "/planner/input");
+    assert_eq!(v["channels"][1]["messages"], 2);
+    // Inputs 100 ms apart on the drive clock; the last output lands one solve later.
+    let dur = v["duration_s"].as_f64().unwrap();
+    assert!((0.1..10.0).contains(&dur), "{dur}");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -136,6 +136,11 @@ pub fn settings_to_array(s: &Settings) -> [f64; SETTINGS_LEN] {
         s.delta_w_max,
         s.delta_c_min,
         s.infeas_stat_tol,
+        s.mu_max_decrease,
+        s.mu_linear_decrease,
+        s.mu_superlinear_power,
+        s.barrier_tol_factor,
+        s.delta_w_decrease,
     ]
 }
 
@@ -190,6 +195,11 @@ fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, Stri
         delta_w_max: v[25],
         delta_c_min: v[26],
         infeas_stat_tol: v[27],
+        mu_max_decrease: v[28],
+        mu_linear_decrease: v[29],
+        mu_superlinear_power: v[30],
+        barrier_tol_factor: v[31],
+        delta_w_decrease: v[32],
     })
 }
 

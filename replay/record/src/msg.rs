@@ -41,7 +41,7 @@ pub const VEHICLE_FIELDS: [&str; VEHICLE_LEN] = [
 ];
 
 /// Solver settings per input, in [`SETTINGS_FIELDS`] order.
-pub const SETTINGS_LEN: usize = 28;
+pub const SETTINGS_LEN: usize = 33;
 /// Order of [`PlanInput::settings`] (the fields of `planner::ip::Settings`; integers, enum
 /// indices and booleans stored as exact f64).
 pub const SETTINGS_FIELDS: [&str; SETTINGS_LEN] = [
@@ -73,6 +73,11 @@ pub const SETTINGS_FIELDS: [&str; SETTINGS_LEN] = [
     "delta_w_max",
     "delta_c_min",
     "infeas_stat_tol",
+    "mu_max_decrease",
+    "mu_linear_decrease",
+    "mu_superlinear_power",
+    "barrier_tol_factor",
+    "delta_w_decrease",
 ];
 
 /// Everything one solve acted on: the problem (road, bounds, initial state, vehicle) and

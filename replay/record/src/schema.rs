@@ -40,7 +40,7 @@ float64[25] vehicle
 # max_restoration_steps barrier globalization mu_floor_factor mu_init mu_min bound_push
 # bound_frac bound_relax tau_min armijo second_order_correction penalty_init delta_w_init
 # delta_w_max delta_c_min infeas_stat_tol
-float64[28] settings
+float64[33] settings
 # FNV-1a 64 of the bits of vehicle and settings
 uint64 config_hash
 string settings_json
@@ -76,3 +76,17 @@ float64[] delta
 float64[] t_comb
 float64[] t_bf
 ";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{CONTROL_LEN, SETTINGS_LEN, STATE_LEN, VEHICLE_LEN};
+
+    /// The schema text must declare the array lengths the codec writes.
+    #[test]
+    fn schema_array_lengths_match_the_codec() {
+        assert!(PLAN_INPUT_MSG.contains(&format!("float64[{SETTINGS_LEN}] settings")));
+        assert!(PLAN_INPUT_MSG.contains(&format!("float64[{VEHICLE_LEN}]")));
+        let _ = (STATE_LEN, CONTROL_LEN);
+    }
+}

@@ -4,6 +4,7 @@
 use super::{Inertia, KktError, KktSolver, KktValues};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::{LdltParams, LdltRegularization};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
     SymmetricOrdering,
@@ -121,6 +122,8 @@ impl SparseLdlt {
             Side::Upper,
             SymmetricOrdering::Amd,
             CholeskySymbolicParams {
+                // Simplicial: measured 2x faster than supernodal on the N = 100 KKT
+                // (factorization 30 vs 60-67 ms over one oval solve).
                 supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
                 ..Default::default()
             },
@@ -190,16 +193,30 @@ impl SparseLdlt {
 
     fn inertia(&self) -> Inertia {
         let mut inertia = Inertia::default();
-        if let SymbolicCholeskyRaw::Simplicial(s) = self.symbolic.raw() {
-            let col_ptr = s.col_ptr();
-            for k in 0..self.n + self.m {
-                let d = self.l_values[col_ptr[k]];
-                if !d.is_finite() || d == 0.0 {
-                    inertia.zero += 1;
-                } else if d > 0.0 {
-                    inertia.positive += 1;
-                } else {
-                    inertia.negative += 1;
+        let mut count = |d: f64| {
+            if !d.is_finite() || d == 0.0 {
+                inertia.zero += 1;
+            } else if d > 0.0 {
+                inertia.positive += 1;
+            } else {
+                inertia.negative += 1;
+            }
+        };
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => {
+                let col_ptr = s.col_ptr();
+                for k in 0..self.n + self.m {
+                    count(self.l_values[col_ptr[k]]);
+                }
+            }
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                let ldlt = SupernodalLdltRef::new(s, &self.l_values);
+                for sn in 0..s.n_supernodes() {
+                    let block = ldlt.supernode(sn).val();
+                    let width = s.supernode_end()[sn] - s.supernode_begin()[sn];
+                    for j in 0..width {
+                        count(block[(j, j)]);
+                    }
                 }
             }
         }

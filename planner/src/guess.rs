@@ -127,25 +127,11 @@ impl EquilibriumProblem {
         std::array::from_fn(|i| res[i] / RESIDUAL_SCALE[i])
     }
 
-    /// Cost of eq. (8) at scaled unknowns `zs` (physical = zs * nominal).
+    /// Cost of eq. (8), 0.5 * sum of squared scaled residuals, at scaled unknowns `zs`.
     fn cost<D: DualNum<Primitive = f64> + Copy>(&self, zs: &[D; NG]) -> D {
-        let zero = D::from(0.0);
-        let z: [D; NG] = std::array::from_fn(|i| zs[i] * Z_NOMINAL[i]);
-        let x = [z[0], z[1], z[2], z[3], z[4], zero, zero, zero, zero];
-        let u = [z[5], z[6], z[7]];
-        let d = time_derivatives(&self.vehicle, &x, &u, 0.0);
-        let res = [
-            d.dxdt[ix::R],
-            d.dxdt[ix::V],
-            d.dxdt[ix::BETA],
-            d.dxdt[ix::VWR],
-            d.dxdt[ix::DFZ],
-            x[ix::V] - x[ix::VWR],
-        ];
-        let mut c = zero;
-        for (r, s) in res.iter().zip(RESIDUAL_SCALE) {
-            let q = *r / s;
-            c += q * q;
+        let mut c = D::from(0.0);
+        for r in self.residuals(zs) {
+            c += r * r;
         }
         c * 0.5
     }

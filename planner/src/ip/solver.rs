@@ -931,30 +931,8 @@ impl<K: KktSolver> Solver<K> {
         };
         let mut alpha = alpha_max;
         for bt in 0..s.max_backtracks {
-            {
-                let ws = &mut self.ws;
-                for j in 0..n + m {
-                    ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
-                }
-            }
-            let te = Instant::now();
-            let f_t = nlp.eval_f(&self.ws.w_t[..n]);
-            {
-                let ws = &mut self.ws;
-                nlp.eval_g(&ws.w_t[..n], &mut ws.g_t);
-            }
-            *teval += te.elapsed().as_secs_f64();
-            *evals += 1;
-            if f_t.is_finite() && self.ws.g_t.iter().all(|v| v.is_finite()) {
-                let ws = &mut self.ws;
-                residuals::constraint_residual(
-                    &ws.is_eq,
-                    &ws.g_l,
-                    n,
-                    &ws.g_t,
-                    &ws.w_t,
-                    &mut ws.c_t,
-                );
+            self.set_trial(alpha);
+            if let Some((f_t, _, _)) = self.eval_trial(nlp, mu_r, teval, evals) {
                 let th = norm2(&self.ws.c_t);
                 let phi = 0.5 * th * th + self.barrier_value(&self.ws.w_t, 0.0, mu_r);
                 if phi.is_finite() && phi <= phi0 + s.armijo * alpha * dd.min(0.0) {
@@ -1215,7 +1193,7 @@ impl<K: KktSolver> Solver<K> {
         const DELTA: f64 = 1.0;
         const MAX_SOC: usize = 4;
         let s = self.settings;
-        let (n, m) = (self.ws.n, self.ws.m);
+        let m = self.ws.m;
         let tau = (1.0 - mu).max(s.tau_min);
         let (alpha_max, alpha_z) = self.max_steps(tau);
         let grad_d = self.barrier_grad_dot_dw(mu);
@@ -1239,12 +1217,7 @@ impl<K: KktSolver> Solver<K> {
             if alpha < alpha_min && bt > 0 {
                 break;
             }
-            {
-                let ws = &mut self.ws;
-                for j in 0..n + m {
-                    ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
-                }
-            }
+            self.set_trial(alpha);
             let Some((f_t, theta_t, phi_t)) = self.eval_trial(nlp, mu, teval, evals) else {
                 alpha *= 0.5;
                 continue;
@@ -1279,12 +1252,7 @@ impl<K: KktSolver> Solver<K> {
                 for _ in 0..MAX_SOC {
                     self.solve_direction(delta_w, Some(()));
                     let (ap, az) = self.max_steps(tau);
-                    {
-                        let ws = &mut self.ws;
-                        for j in 0..n + m {
-                            ws.w_t[j] = ws.w[j] + ap * ws.dw[j];
-                        }
-                    }
+                    self.set_trial(ap);
                     let Some((f_s, theta_s, phi_s)) = self.eval_trial(nlp, mu, teval, evals) else {
                         break;
                     };
@@ -1323,6 +1291,14 @@ impl<K: KktSolver> Solver<K> {
             alpha *= 0.5;
         }
         None
+    }
+
+    /// w_t = w + alpha dw.
+    fn set_trial(&mut self, alpha: f64) {
+        let ws = &mut self.ws;
+        for j in 0..ws.n + ws.m {
+            ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
+        }
     }
 
     /// Evaluates f and c at w_t; returns (f, ||c||_1, barrier objective) when finite.
@@ -1455,32 +1431,8 @@ impl<K: KktSolver> Solver<K> {
         let mut alpha = alpha_max;
         let mut soc_tried = false;
         for bt in 0..s.max_backtracks {
-            // Trial point.
-            {
-                let ws = &mut self.ws;
-                for j in 0..n + m {
-                    ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
-                }
-            }
-            let te = Instant::now();
-            let f_t = nlp.eval_f(&self.ws.w_t[..n]);
-            {
-                let ws = &mut self.ws;
-                nlp.eval_g(&ws.w_t[..n], &mut ws.g_t);
-            }
-            *teval += te.elapsed().as_secs_f64();
-            *evals += 1;
-            let ok_eval = f_t.is_finite() && self.ws.g_t.iter().all(|v| v.is_finite());
-            if ok_eval {
-                let ws = &mut self.ws;
-                residuals::constraint_residual(
-                    &ws.is_eq,
-                    &ws.g_l,
-                    n,
-                    &ws.g_t,
-                    &ws.w_t,
-                    &mut ws.c_t,
-                );
+            self.set_trial(alpha);
+            if let Some((f_t, _, _)) = self.eval_trial(nlp, mu, teval, evals) {
                 let theta_t = norm2(&self.ws.c_t);
                 let phi_t = self.barrier_value(&self.ws.w_t, f_t, mu) + *nu * theta_t;
                 if phi_t.is_finite() && phi_t <= phi0 + s.armijo * alpha * dir_deriv.min(0.0) {
@@ -1521,37 +1473,19 @@ impl<K: KktSolver> Solver<K> {
         evals: &mut usize,
     ) -> Option<f64> {
         let s = self.settings;
-        let (n, m) = (self.ws.n, self.ws.m);
         {
             let ws = &mut self.ws;
-            for i in 0..m {
+            for i in 0..ws.m {
                 ws.tmp_m[i] = alpha * ws.c[i] + ws.c_t[i];
             }
         }
         self.solve_direction(delta_w, Some(()));
         let (ap, az) = self.max_steps(tau);
-        {
-            let ws = &mut self.ws;
-            for j in 0..n + m {
-                ws.w_t[j] = ws.w[j] + ap * ws.dw[j];
-            }
-        }
-        let te = Instant::now();
-        let f_t = nlp.eval_f(&self.ws.w_t[..n]);
-        {
-            let ws = &mut self.ws;
-            nlp.eval_g(&ws.w_t[..n], &mut ws.g_t);
-        }
-        *teval += te.elapsed().as_secs_f64();
-        *evals += 1;
-        if !(f_t.is_finite() && self.ws.g_t.iter().all(|v| v.is_finite())) {
+        self.set_trial(ap);
+        let Some((f_t, _, _)) = self.eval_trial(nlp, mu, teval, evals) else {
             self.restore_direction(delta_w);
             return None;
-        }
-        {
-            let ws = &mut self.ws;
-            residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g_t, &ws.w_t, &mut ws.c_t);
-        }
+        };
         let theta_t = norm2(&self.ws.c_t);
         let phi_t = self.barrier_value(&self.ws.w_t, f_t, mu) + nu * theta_t;
         if phi_t.is_finite() && phi_t <= phi0 + s.armijo * ap * dir_deriv.min(0.0) {

@@ -23,15 +23,14 @@ fn main() {
     let mut plant = Plant::cruise(sc.spec.vehicle, 15.0);
     let g = Gains::default();
     let ds = sc.ds();
-    let (mut k, mut emin, mut emax) = ([0.0; 101], [0.0; 101], [0.0; 101]);
+    let mut w = ipc::road::RoadWindow::default();
     let mut plan = Box::new(unsafe { std::mem::zeroed::<Trajectory>() });
     let mut next_plan = 0.0;
     let mut max_e: f64 = 0.0;
     while plant.x[ix::S] < 257.0 && plant.x[ix::T] < 40.0 {
         if plant.x[ix::T] >= next_plan {
             next_plan += replan_dt;
-            sc.road
-                .window(plant.x[ix::S], ds, 0.5, 20.0, &mut k, &mut emin, &mut emax);
+            sc.road.window(plant.x[ix::S], ds, 0.5, 20.0, &mut w);
             let mut x0 = plant.x;
             if mode == "planned" && plan.ds > 0.0 {
                 if let Some(r) = reference(&plan, plant.x[ix::S] - plan.s_origin) {
@@ -44,7 +43,7 @@ fn main() {
             x0[ix::S] = 0.0;
             x0[ix::T] = 0.0;
             let info = pl
-                .replan(&k, &emin, &emax, x0, ReplanGuess::Equilibrium)
+                .replan(&w.kappa, &w.e_min, &w.e_max, x0, ReplanGuess::Equilibrium)
                 .unwrap();
             println!("t {:6.2} s {:7.2} V {:5.2} e {:5.2} beta {:6.3} r {:6.3} vwr {:5.2} dfz {:7.1} -> {} {} its {:.0} ms, max_e {:.3}",
                 plant.x[ix::T], plant.x[ix::S], plant.x[ix::V], plant.x[ix::E], plant.x[ix::BETA], plant.x[ix::R], plant.x[ix::VWR], plant.x[ix::DFZ],

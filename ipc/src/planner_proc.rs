@@ -16,7 +16,7 @@ use planner::plan::{Planner, ReplanGuess};
 
 use crate::clock::monotonic_ns;
 use crate::msg::{status_code, Invalid, VehicleState, HORIZON_N, MSG_VERSION};
-use crate::road::Scenario;
+use crate::road::{RoadWindow, Scenario};
 use crate::services::{ipc_err, IpcError, Services};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
@@ -48,8 +48,9 @@ pub struct PlannerArgs {
     /// Lane margin the plan keeps from each edge [m] (room for tracking error).
     #[arg(long, default_value_t = 0.5)]
     pub lane_margin_m: f64,
-    /// Warm-start from the previous plan shifted in s (off: always the equilibrium guess).
-    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    /// Warm-start from the previous plan shifted in s (off, the default for now: always the
+    /// equilibrium guess; warm starts measured worse in closed loop, see issue 4 notes).
+    #[arg(long, default_value = "off", value_parser = ["on", "off"])]
     pub warm_start: String,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
     #[arg(long)]
@@ -102,9 +103,7 @@ impl Rejected {
 /// What one planning cycle needs, allocated once.
 struct Cycle {
     planner: Planner<HORIZON_N>,
-    kappa: [f64; HORIZON_N + 1],
-    e_min: [f64; HORIZON_N + 1],
-    e_max: [f64; HORIZON_N + 1],
+    road: RoadWindow,
     guess_x: Vec<[f64; NX]>,
     guess_u: Vec<[f64; NU]>,
     /// Previous plan: origin s and whether it is usable for a warm start.
@@ -178,9 +177,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
     let mut cy = Cycle {
         planner,
-        kappa: [0.0; HORIZON_N + 1],
-        e_min: [0.0; HORIZON_N + 1],
-        e_max: [0.0; HORIZON_N + 1],
+        road: RoadWindow::default(),
         guess_x: vec![[0.0; NX]; HORIZON_N + 1],
         guess_u: vec![[0.0; NU]; HORIZON_N],
         prev_origin: 0.0,
@@ -264,22 +261,15 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         // ---- planning cycle
         let t0 = Instant::now();
         let s_track = state.x[ix::S];
-        sc.road.window(
-            s_track,
-            ds,
-            margin,
-            MARGIN_RAMP_M,
-            &mut cy.kappa,
-            &mut cy.e_min,
-            &mut cy.e_max,
-        );
+        sc.road
+            .window(s_track, ds, margin, MARGIN_RAMP_M, &mut cy.road);
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds
         // the OCP enforces so a slightly-out state stays plannable.
         let mut x0 = state.x;
         x0[ix::S] = 0.0;
         x0[ix::T] = 0.0;
         x0[ix::V] = x0[ix::V].clamp(v_min + 1e-3, v_max - 1e-3);
-        x0[ix::E] = x0[ix::E].clamp(cy.e_min[0] + 1e-3, cy.e_max[0] - 1e-3);
+        x0[ix::E] = x0[ix::E].clamp(cy.road.e_min[0] + 1e-3, cy.road.e_max[0] - 1e-3);
         x0[ix::VWR] = x0[ix::VWR].max(1e-3);
         let shift = s_track - cy.prev_origin;
         let sound = args.warm_start == "on"
@@ -290,9 +280,9 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         if sound {
             cy.shifted_guess(shift, &x0, ds);
             let r = cy.planner.replan(
-                &cy.kappa,
-                &cy.e_min,
-                &cy.e_max,
+                &cy.road.kappa,
+                &cy.road.e_min,
+                &cy.road.e_max,
                 x0,
                 ReplanGuess::Warm(&cy.guess_x, &cy.guess_u),
             );
@@ -310,9 +300,9 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             None => {
                 cold += 1;
                 match cy.planner.replan(
-                    &cy.kappa,
-                    &cy.e_min,
-                    &cy.e_max,
+                    &cy.road.kappa,
+                    &cy.road.e_min,
+                    &cy.road.e_max,
                     x0,
                     ReplanGuess::Equilibrium,
                 ) {

@@ -97,16 +97,12 @@ impl ClosedRoad {
     /// Road ahead of track s0 at the N + 1 nodes s0 + k ds, lane shrunk by `margin` on
     /// both sides; the margin ramps in linearly over the first `ramp` metres so a car that
     /// is already inside the margin can still be planned for. Allocates nothing.
-    pub fn window(
-        &self,
-        s0: f64,
-        ds: f64,
-        margin: f64,
-        ramp: f64,
-        kappa: &mut [f64; HORIZON_N + 1],
-        e_min: &mut [f64; HORIZON_N + 1],
-        e_max: &mut [f64; HORIZON_N + 1],
-    ) {
+    pub fn window(&self, s0: f64, ds: f64, margin: f64, ramp: f64, out: &mut RoadWindow) {
+        let RoadWindow {
+            kappa,
+            e_min,
+            e_max,
+        } = out;
         for k in 0..=HORIZON_N {
             kappa[k] = self.kappa(s0 + k as f64 * ds);
             let s = k as f64 * ds;
@@ -117,6 +113,27 @@ impl ClosedRoad {
             };
             e_min[k] = self.e_min + m;
             e_max[k] = self.e_max - m;
+        }
+    }
+}
+
+/// The road at the N + 1 nodes of one planning horizon (fixed size, no heap).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoadWindow {
+    /// k_ref at the nodes [1/m].
+    pub kappa: [f64; HORIZON_N + 1],
+    /// Right bound at the nodes [m].
+    pub e_min: [f64; HORIZON_N + 1],
+    /// Left bound at the nodes [m].
+    pub e_max: [f64; HORIZON_N + 1],
+}
+
+impl Default for RoadWindow {
+    fn default() -> Self {
+        Self {
+            kappa: [0.0; HORIZON_N + 1],
+            e_min: [0.0; HORIZON_N + 1],
+            e_max: [0.0; HORIZON_N + 1],
         }
     }
 }

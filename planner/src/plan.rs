@@ -25,6 +25,25 @@ pub enum PlanError {
     /// The equilibrium guess failed.
     #[error(transparent)]
     Guess(#[from] guess::GuessError),
+    /// A replanning input has the wrong length (need N + 1 road samples, N + 1 states, N controls).
+    #[error("replan: {field} has {got} entries, expected {expected}")]
+    ReplanLength {
+        /// Which input.
+        field: &'static str,
+        /// Required length.
+        expected: usize,
+        /// Given length.
+        got: usize,
+    },
+}
+
+/// The starting point of [`Planner::replan`].
+#[derive(Debug, Clone, Copy)]
+pub enum ReplanGuess<'a> {
+    /// The cached equilibrium guess, with x_0 set to the fixed initial state.
+    Equilibrium,
+    /// A caller-built guess (e.g. the previous solution shifted in s): N + 1 states, N controls.
+    Warm(&'a [[f64; NX]], &'a [[f64; NU]]),
 }
 
 /// A reusable planner for one road and vehicle with N intervals.
@@ -108,6 +127,63 @@ impl<const N: usize> Planner<N> {
         self.nlp
             .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
         info
+    }
+
+    /// Replans over a new road window from a fixed initial state x0 (s and t of x0 should
+    /// be 0): writes the road and x0, sets the guess and solves. The solution is then in
+    /// [`Self::states`] and [`Self::controls`].
+    ///
+    /// Updates the road and the initial state in place (no allocation, same sparsity) and
+    /// solves.
+    pub fn replan(
+        &mut self,
+        kappa: &[f64],
+        e_min: &[f64],
+        e_max: &[f64],
+        x0: [f64; NX],
+        guess: ReplanGuess<'_>,
+    ) -> Result<SolveInfo, PlanError> {
+        for (field, len, expected) in [
+            ("kappa", kappa.len(), N + 1),
+            ("e_min", e_min.len(), N + 1),
+            ("e_max", e_max.len(), N + 1),
+        ] {
+            if len != expected {
+                return Err(PlanError::ReplanLength {
+                    field,
+                    expected,
+                    got: len,
+                });
+            }
+        }
+        if let ReplanGuess::Warm(xs, us) = guess {
+            if xs.len() != N + 1 || us.len() != N {
+                return Err(PlanError::ReplanLength {
+                    field: if xs.len() != N + 1 {
+                        "states"
+                    } else {
+                        "controls"
+                    },
+                    expected: if xs.len() != N + 1 { N + 1 } else { N },
+                    got: if xs.len() != N + 1 {
+                        xs.len()
+                    } else {
+                        us.len()
+                    },
+                });
+            }
+        }
+        // In place: same sparsity, so the solver's symbolic analysis stays valid.
+        self.nlp.update_road(kappa, e_min, e_max)?;
+        self.nlp.set_initial(InitialState::Fixed(x0));
+        match guess {
+            ReplanGuess::Equilibrium => self.set_guess(GuessKind::Equilibrium),
+            ReplanGuess::Warm(xs, us) => self.nlp.set_initial_guess(xs, us),
+        }
+        let info = self.solver.solve(&mut self.nlp);
+        self.nlp
+            .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
+        Ok(info)
     }
 
     /// States x_0..x_N of the last solve (physical units).

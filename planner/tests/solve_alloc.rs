@@ -27,3 +27,32 @@ fn oval_solve_allocates_nothing() {
     });
     assert!(seen.count_total > 0);
 }
+
+#[test]
+fn replan_from_a_new_state_allocates_nothing() {
+    use planner::model::ix;
+    use planner::plan::ReplanGuess;
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let vehicle = load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
+    let spec = load_scenario(&root.join("scenarios/oval.toml"), None, vehicle).unwrap();
+    let settings = load_solver(&root.join("solver.toml")).unwrap();
+    let (kappa, e_min, e_max) = (spec.kappa.clone(), spec.e_min.clone(), spec.e_max.clone());
+    let mut p = Planner::<100>::new(spec, settings).unwrap();
+    p.solve(GuessKind::Equilibrium);
+    // Start from the planned state at node 10, as a replanning cycle would.
+    let mut x0 = p.states()[10];
+    x0[ix::S] = 0.0;
+    x0[ix::T] = 0.0;
+    p.replan(&kappa, &e_min, &e_max, x0, ReplanGuess::Equilibrium)
+        .unwrap();
+    x0[ix::V] += 0.5;
+    let mut ok = None;
+    let info = allocation_counter::measure(|| {
+        ok = Some(
+            p.replan(&kappa, &e_min, &e_max, x0, ReplanGuess::Equilibrium)
+                .map(|i| i.status),
+        );
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+    assert!(matches!(ok, Some(Ok(_))), "{ok:?}");
+}

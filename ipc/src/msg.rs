@@ -1,0 +1,303 @@
+//! Fixed-size `#[repr(C)]` messages sent zero-copy over iceoryx2, and their validation.
+//!
+//! Every message starts with [`MSG_VERSION`] and carries the [`RoadId`] of the scenario
+//! both processes loaded, a sequence number and a CLOCK_MONOTONIC publish stamp (the
+//! clock is system-wide, so the receiver can compute the one-way latency).
+
+use iceoryx2::prelude::ZeroCopySend;
+use planner::ip::Status;
+use planner::model::{ix, NU, NX};
+
+/// Wire version of every message in this module; bump on any layout change.
+pub const MSG_VERSION: u32 = 1;
+/// Horizon intervals N carried by a [`Trajectory`] (the paper's N = 100).
+pub const HORIZON_N: usize = 100;
+
+/// Identifies the road (scenario) a message belongs to: FNV-1a of the scenario file bytes.
+pub type RoadId = u64;
+
+/// FNV-1a 64-bit hash (road ids).
+pub fn fnv1a(bytes: &[u8]) -> RoadId {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
+/// [`VehicleState::flags`]: the tracker's plan is older than its stale limit.
+pub const FLAG_STALE: u32 = 1;
+/// [`VehicleState::flags`]: the vehicle has braked to a stop.
+pub const FLAG_STOPPED: u32 = 2;
+/// [`VehicleState::flags`]: the plant simulation is running (a first plan arrived).
+pub const FLAG_RUNNING: u32 = 4;
+
+/// Measured vehicle state published by the tracker (the plant's full model state).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("trajopt::VehicleState")]
+#[repr(C)]
+pub struct VehicleState {
+    /// Must equal [`MSG_VERSION`].
+    pub version: u32,
+    /// Bit set of `FLAG_*`.
+    pub flags: u32,
+    /// Sequence number, +1 per published state.
+    pub seq: u64,
+    /// Road the state is on.
+    pub road_id: RoadId,
+    /// CLOCK_MONOTONIC at publish [ns].
+    pub stamp_ns: u64,
+    /// [r, V, beta, V_wr, dFz, e, dpsi, s, t] (order of `planner::model::ix`); s is the
+    /// unwrapped track arc length [m] and t the simulation time [s].
+    pub x: [f64; NX],
+}
+
+/// One planned trajectory on the s grid s_k = k ds of the horizon starting at `s_origin`.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("trajopt::Trajectory")]
+#[repr(C)]
+pub struct Trajectory {
+    /// Must equal [`MSG_VERSION`].
+    pub version: u32,
+    /// Solver status code ([`status_code`]); a capped solve still publishes its best iterate.
+    pub status: u32,
+    /// Sequence number, +1 per published plan.
+    pub seq: u64,
+    /// Road the plan is on.
+    pub road_id: RoadId,
+    /// CLOCK_MONOTONIC at publish [ns].
+    pub stamp_ns: u64,
+    /// `seq` of the vehicle state this plan starts from.
+    pub from_state_seq: u64,
+    /// `stamp_ns` of that vehicle state.
+    pub from_state_stamp_ns: u64,
+    /// Interior-point iterations.
+    pub iterations: u32,
+    /// 1 when warm-started from the previous plan shifted in s, 0 for the equilibrium guess.
+    pub warm_started: u32,
+    /// Wall time of the planning cycle (road window, guess, solve) [s].
+    pub solve_time_s: f64,
+    /// Track arc length of node 0 [m] (unwrapped, as in the vehicle state).
+    pub s_origin: f64,
+    /// Simulation time of node 0 [s].
+    pub t_origin: f64,
+    /// Node spacing [m].
+    pub ds: f64,
+    /// The measured state the plan starts from (s and t as measured).
+    pub x_from: [f64; NX],
+    /// Planned states x_0..x_N (s and t relative to node 0).
+    pub x: [[f64; NX]; HORIZON_N + 1],
+    /// Planned controls u_0..u_{N-1}; u_k holds on [s_k, s_k+1).
+    pub u: [[f64; NU]; HORIZON_N],
+}
+
+/// Wire code of a solver status.
+pub fn status_code(s: Status) -> u32 {
+    match s {
+        Status::Optimal => 0,
+        Status::Acceptable => 1,
+        Status::IterationLimit => 2,
+        Status::TimeLimit => 3,
+        Status::LocallyInfeasible => 4,
+        Status::NumericalFailure => 5,
+        Status::InvalidInput => 6,
+    }
+}
+
+/// Solver status name of a wire code (`None` for an unknown code).
+pub fn status_name(code: u32) -> Option<&'static str> {
+    const NAMES: [Status; 7] = [
+        Status::Optimal,
+        Status::Acceptable,
+        Status::IterationLimit,
+        Status::TimeLimit,
+        Status::LocallyInfeasible,
+        Status::NumericalFailure,
+        Status::InvalidInput,
+    ];
+    NAMES.get(code as usize).map(|s| s.name())
+}
+
+/// Why a received message was dropped.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum Invalid {
+    /// Sender speaks another wire version.
+    #[error("unknown message version {got} (this build speaks version {MSG_VERSION})")]
+    Version {
+        /// Version in the message.
+        got: u32,
+    },
+    /// The message belongs to another road/scenario.
+    #[error("road id {got:#018x} does not match this road {expected:#018x}")]
+    Road {
+        /// Road id in the message.
+        got: RoadId,
+        /// Road id of this process.
+        expected: RoadId,
+    },
+    /// A value is NaN or infinite.
+    #[error("{field} is not finite")]
+    NonFinite {
+        /// Field name.
+        field: &'static str,
+    },
+    /// A value is outside its physical range.
+    #[error("{field} = {value} outside the physical range [{min}, {max}]")]
+    Range {
+        /// Field name.
+        field: &'static str,
+        /// Offending value.
+        value: f64,
+        /// Lower limit.
+        min: f64,
+        /// Upper limit.
+        max: f64,
+    },
+    /// Unknown solver status code.
+    #[error("unknown solver status code {0}")]
+    Status(u32),
+}
+
+/// Physical ranges of the state entries (order of `ix`), used to drop absurd states.
+pub const STATE_RANGES: [(&str, f64, f64); NX] = [
+    ("r", -5.0, 5.0),
+    ("V", 0.0, 100.0),
+    ("beta", -1.5, 1.5),
+    ("V_wr", -5.0, 150.0),
+    ("dFz", -3.0e4, 3.0e4),
+    ("e", -20.0, 20.0),
+    ("dpsi", -std::f64::consts::PI, std::f64::consts::PI),
+    ("s", -1.0e7, 1.0e7),
+    ("t", -1.0, 1.0e7),
+];
+
+fn check_header(version: u32, road: RoadId, expected: RoadId) -> Result<(), Invalid> {
+    if version != MSG_VERSION {
+        return Err(Invalid::Version { got: version });
+    }
+    if road != expected {
+        return Err(Invalid::Road {
+            got: road,
+            expected,
+        });
+    }
+    Ok(())
+}
+
+fn check_state(x: &[f64; NX]) -> Result<(), Invalid> {
+    for (v, &(field, min, max)) in x.iter().zip(STATE_RANGES.iter()) {
+        if !v.is_finite() {
+            return Err(Invalid::NonFinite { field });
+        }
+        if *v < min || *v > max {
+            return Err(Invalid::Range {
+                field,
+                value: *v,
+                min,
+                max,
+            });
+        }
+    }
+    Ok(())
+}
+
+impl VehicleState {
+    /// A state message for `road_id` (flags 0, stamp set at publish).
+    pub fn new(road_id: RoadId, seq: u64, flags: u32, x: [f64; NX]) -> Self {
+        Self {
+            version: MSG_VERSION,
+            flags,
+            seq,
+            road_id,
+            stamp_ns: 0,
+            x,
+        }
+    }
+
+    /// Checks version, road, finiteness and physical ranges; allocates nothing.
+    pub fn validate(&self, road: RoadId) -> Result<(), Invalid> {
+        check_header(self.version, self.road_id, road)?;
+        check_state(&self.x)
+    }
+
+    /// Speed V [m/s].
+    pub fn speed(&self) -> f64 {
+        self.x[ix::V]
+    }
+}
+
+impl Trajectory {
+    /// Checks version, road, status code and that every number is finite; allocates nothing.
+    pub fn validate(&self, road: RoadId) -> Result<(), Invalid> {
+        check_header(self.version, self.road_id, road)?;
+        if status_name(self.status).is_none() {
+            return Err(Invalid::Status(self.status));
+        }
+        for (field, v) in [
+            ("ds", self.ds),
+            ("s_origin", self.s_origin),
+            ("t_origin", self.t_origin),
+            ("solve_time_s", self.solve_time_s),
+        ] {
+            if !v.is_finite() {
+                return Err(Invalid::NonFinite { field });
+            }
+        }
+        if !(self.ds > 0.0 && self.ds < 100.0) {
+            return Err(Invalid::Range {
+                field: "ds",
+                value: self.ds,
+                min: 0.0,
+                max: 100.0,
+            });
+        }
+        if self.x.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(Invalid::NonFinite { field: "x" });
+        }
+        if self.u.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(Invalid::NonFinite { field: "u" });
+        }
+        Ok(())
+    }
+
+    /// Horizon length N ds [m].
+    pub fn length(&self) -> f64 {
+        self.ds * HORIZON_N as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn good() -> VehicleState {
+        VehicleState::new(7, 1, 0, [0.0, 15.0, 0.0, 15.0, 0.0, 0.0, 0.0, 3.0, 1.0])
+    }
+
+    #[test]
+    fn state_validation() {
+        assert_eq!(good().validate(7), Ok(()));
+        let mut m = good();
+        m.version = 99;
+        assert_eq!(m.validate(7), Err(Invalid::Version { got: 99 }));
+        assert!(matches!(good().validate(8), Err(Invalid::Road { .. })));
+        let mut m = good();
+        m.x[ix::E] = f64::NAN;
+        assert_eq!(m.validate(7), Err(Invalid::NonFinite { field: "e" }));
+        let mut m = good();
+        m.x[ix::V] = 1.0e6;
+        assert!(matches!(
+            m.validate(7),
+            Err(Invalid::Range { field: "V", .. })
+        ));
+    }
+
+    #[test]
+    fn status_codes_round_trip() {
+        for s in [Status::Optimal, Status::TimeLimit, Status::InvalidInput] {
+            assert_eq!(status_name(status_code(s)), Some(s.name()));
+        }
+        assert_eq!(status_name(42), None);
+    }
+}

@@ -1,0 +1,196 @@
+//! The iceoryx2 services of the closed loop, opened with the same QoS by every process:
+//! `<prefix>/vehicle_state` and `<prefix>/trajectory` (publish-subscribe, each paired with
+//! an event service of the same name so receivers block on a listener, not a busy loop).
+
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+
+use crate::msg::{Trajectory, VehicleState};
+
+/// The iceoryx2 service flavour: inter-process, single-threaded ports.
+pub type Svc = ipc::Service;
+
+/// Any iceoryx2 failure, with the step that failed.
+#[derive(Debug, thiserror::Error)]
+#[error("iceoryx2: {step}: {msg}")]
+pub struct IpcError {
+    /// What was being done.
+    pub step: &'static str,
+    /// The underlying error.
+    pub msg: String,
+}
+
+/// Wraps an iceoryx2 error with the step that failed.
+pub fn ipc_err<E: core::fmt::Debug>(step: &'static str) -> impl FnOnce(E) -> IpcError {
+    move |e| IpcError {
+        step,
+        msg: format!("{e:?}"),
+    }
+}
+
+/// Default service-name prefix.
+pub const DEFAULT_PREFIX: &str = "trajopt";
+
+/// A node plus the port factories of both services.
+pub struct Services {
+    /// The process's node.
+    pub node: Node<Svc>,
+    state: iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, VehicleState, ()>,
+    state_ev: iceoryx2::service::port_factory::event::PortFactory<Svc>,
+    traj: iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, Trajectory, ()>,
+    traj_ev: iceoryx2::service::port_factory::event::PortFactory<Svc>,
+}
+
+fn name(prefix: &str, topic: &str) -> Result<ServiceName, IpcError> {
+    let full = format!("{prefix}/{topic}");
+    ServiceName::new(&full).map_err(ipc_err("service name"))
+}
+
+impl Services {
+    /// Creates the node and opens (or creates) both services under `prefix`.
+    pub fn open(prefix: &str, node_name: &str) -> Result<Self, IpcError> {
+        set_log_level(LogLevel::Error);
+        let nn = NodeName::new(node_name).map_err(ipc_err("node name"))?;
+        let node = NodeBuilder::new()
+            .name(&nn)
+            .create::<Svc>()
+            .map_err(ipc_err("create node"))?;
+        let state_name = name(prefix, "vehicle_state")?;
+        let traj_name = name(prefix, "trajectory")?;
+        let state = node
+            .service_builder(&state_name)
+            .publish_subscribe::<VehicleState>()
+            .history_size(1)
+            .subscriber_max_buffer_size(8)
+            .subscriber_max_borrowed_samples(2)
+            .max_publishers(4)
+            .max_subscribers(4)
+            .max_nodes(8)
+            .open_or_create()
+            .map_err(ipc_err("open vehicle_state service"))?;
+        let traj = node
+            .service_builder(&traj_name)
+            .publish_subscribe::<Trajectory>()
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .subscriber_max_borrowed_samples(2)
+            .max_publishers(2)
+            .max_subscribers(4)
+            .max_nodes(8)
+            .open_or_create()
+            .map_err(ipc_err("open trajectory service"))?;
+        let state_ev = node
+            .service_builder(&state_name)
+            .event()
+            .max_nodes(8)
+            .max_notifiers(4)
+            .max_listeners(4)
+            .open_or_create()
+            .map_err(ipc_err("open vehicle_state event"))?;
+        let traj_ev = node
+            .service_builder(&traj_name)
+            .event()
+            .max_nodes(8)
+            .max_notifiers(4)
+            .max_listeners(4)
+            .open_or_create()
+            .map_err(ipc_err("open trajectory event"))?;
+        Ok(Self {
+            node,
+            state,
+            state_ev,
+            traj,
+            traj_ev,
+        })
+    }
+
+    /// Publisher of vehicle states.
+    pub fn state_publisher(&self) -> Result<Publisher<Svc, VehicleState, ()>, IpcError> {
+        self.state
+            .publisher_builder()
+            .max_loaned_samples(1)
+            .create()
+            .map_err(ipc_err("create state publisher"))
+    }
+
+    /// Subscriber of vehicle states.
+    pub fn state_subscriber(&self) -> Result<Subscriber<Svc, VehicleState, ()>, IpcError> {
+        self.state
+            .subscriber_builder()
+            .buffer_size(8)
+            .create()
+            .map_err(ipc_err("create state subscriber"))
+    }
+
+    /// Publisher of trajectories.
+    pub fn traj_publisher(&self) -> Result<Publisher<Svc, Trajectory, ()>, IpcError> {
+        self.traj
+            .publisher_builder()
+            .max_loaned_samples(1)
+            .create()
+            .map_err(ipc_err("create trajectory publisher"))
+    }
+
+    /// Subscriber of trajectories.
+    pub fn traj_subscriber(&self) -> Result<Subscriber<Svc, Trajectory, ()>, IpcError> {
+        self.traj
+            .subscriber_builder()
+            .buffer_size(2)
+            .create()
+            .map_err(ipc_err("create trajectory subscriber"))
+    }
+
+    /// Notifier that wakes state listeners.
+    pub fn state_notifier(&self) -> Result<Notifier<Svc>, IpcError> {
+        self.state_ev
+            .notifier_builder()
+            .create()
+            .map_err(ipc_err("create state notifier"))
+    }
+
+    /// Listener woken by new states.
+    pub fn state_listener(&self) -> Result<Listener<Svc>, IpcError> {
+        self.state_ev
+            .listener_builder()
+            .create()
+            .map_err(ipc_err("create state listener"))
+    }
+
+    /// Notifier that wakes trajectory listeners.
+    pub fn traj_notifier(&self) -> Result<Notifier<Svc>, IpcError> {
+        self.traj_ev
+            .notifier_builder()
+            .create()
+            .map_err(ipc_err("create trajectory notifier"))
+    }
+
+    /// Listener woken by new trajectories.
+    pub fn traj_listener(&self) -> Result<Listener<Svc>, IpcError> {
+        self.traj_ev
+            .listener_builder()
+            .create()
+            .map_err(ipc_err("create trajectory listener"))
+    }
+
+    /// True when SIGINT/SIGTERM was received (iceoryx2's signal handler).
+    pub fn termination_requested(&self) -> bool {
+        self.node.wait(core::time::Duration::ZERO).is_err()
+    }
+}
+
+/// Publishes a vehicle state (stamped now) and wakes listeners. Allocates nothing.
+pub fn publish_state(
+    publisher: &Publisher<Svc, VehicleState, ()>,
+    notifier: &Notifier<Svc>,
+    mut msg: VehicleState,
+) -> Result<(), IpcError> {
+    msg.stamp_ns = crate::clock::monotonic_ns();
+    publisher
+        .send_copy(msg)
+        .map_err(ipc_err("send vehicle state"))?;
+    notifier.notify().map_err(ipc_err("notify vehicle state"))?;
+    Ok(())
+}

@@ -43,9 +43,12 @@ fn run_closed_loop(distance_m: f64) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("bad JSON ({e}):\n{stderr}"))
 }
 
+/// The issue's acceptance criterion: one lap of the oval over iceoryx2, the car stays in the
+/// lane and within 0.5 m of the plan, and both processes shut down (the command returns
+/// only after both exited). One test, so two closed loops never compete for the 2 cores.
 #[test]
-fn closed_loop_runs_and_shuts_down() {
-    let v = run_closed_loop(60.0);
+fn closed_loop_oval_lap_keeps_lane_and_tracks_plan() {
+    let v = run_closed_loop(0.0);
     for k in [
         "laps_or_distance_m",
         "plans_received",
@@ -59,24 +62,11 @@ fn closed_loop_runs_and_shuts_down() {
     ] {
         assert!(v.get(k).is_some_and(|x| !x.is_null()), "{k} missing in {v}");
     }
-    assert!(v["plans_received"].as_u64().unwrap_or(0) >= 1, "{v}");
+    assert!(v["plans_received"].as_u64().unwrap_or(0) >= 10, "{v}");
     assert!(
-        v["planner"]["plans_published"].as_u64().unwrap_or(0) >= 1,
+        v["laps_or_distance_m"].as_f64().unwrap_or(0.0) > 250.0,
         "{v}"
     );
-    assert!(
-        v["laps_or_distance_m"].as_f64().unwrap_or(0.0) > 10.0,
-        "{v}"
-    );
-}
-
-/// The issue's acceptance criterion. Not yet met reliably on a loaded 2-core machine:
-/// plans arrive 0.15 to 1 s after the state they start from and a third of the solves
-/// hit the time cap or end locally infeasible (see the issue 4 report).
-#[test]
-#[ignore = "tracking quality not yet met over IPC on a loaded machine; run with --ignored"]
-fn closed_loop_oval_lap_keeps_lane_and_tracks_plan() {
-    let v = run_closed_loop(0.0);
     assert_eq!(v["lane_kept"], serde_json::json!(true), "{v}");
     let max_e = v["max_lateral_error_m"].as_f64().unwrap_or(f64::INFINITY);
     assert!(max_e < 0.5, "max lateral error {max_e} m\n{v}");

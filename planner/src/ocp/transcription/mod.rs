@@ -190,6 +190,10 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
     rows: Vec<RowInfo>,
 }
 
+/// Upper bound of the rear saturation row at node 0 with a fixed initial state (scaled;
+/// sigma - sigma_sl <= 100, never active).
+const SATURATION_FIXED_X0_BOUND: f64 = 1e3;
+
 /// The implicit-Euler transcription used by the paper's best solver pairing.
 pub type ImplicitEulerNlp<const N: usize> = Transcription<ImplicitEuler, N>;
 
@@ -610,6 +614,13 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             if self.spec.enforce_tire_saturation {
                 g_l[st.row_sat..st.row_sat + SATURATION_ROWS].fill(f64::NEG_INFINITY);
                 g_u[st.row_sat..st.row_sat + SATURATION_ROWS].fill(p.eps_sat / SATURATION_SCALE);
+                // With a fixed (measured) x_0 the rear slip at node 0 depends on x_0 alone: a
+                // car that is already sliding would make the problem infeasible whatever the
+                // controls. That row gets a bound it never reaches (the front row stays: the
+                // steering controls its slip).
+                if k == 0 && matches!(self.spec.initial, InitialState::Fixed(_)) {
+                    g_u[st.row_sat + 1] = SATURATION_FIXED_X0_BOUND;
+                }
             }
             if k >= 1 {
                 rate_row_bounds(

@@ -237,7 +237,12 @@ impl<K: KktSolver> Solver<K> {
                     // Locally infeasible: a violation well above the acceptable level at a
                     // stationary point of 0.5 ||c||^2 (relative to the violation itself).
                     let significant = err.inf_pr > 10.0 * s.constr_viol_tol;
-                    let stationary = stat <= s.infeas_stat_tol * err.inf_pr;
+                    // Converged: stationary to the tolerance, or full Newton steps on the
+                    // violation that no longer reduce it at a loosely stationary point
+                    // (the projected measure oscillates near active bounds).
+                    let stagnant = r.watch(theta) >= RESTO_STAGNATION;
+                    let stationary = stat <= s.infeas_stat_tol * err.inf_pr
+                        || (stagnant && stat <= 1e-2 * err.inf_pr);
                     if significant && stationary {
                         status = Status::LocallyInfeasible;
                         break;
@@ -1538,13 +1543,37 @@ struct Restoration {
     theta_entry: f64,
     /// Barrier parameter of the restoration merit.
     mu: f64,
+    /// Smallest ||c||_2 seen in this restoration phase.
+    theta_best: f64,
+    /// Restoration steps since ||c||_2 last fell 1 % below `theta_best`.
+    stagnant: usize,
 }
 
 impl Restoration {
     fn new(theta_entry: f64, mu: f64) -> Self {
-        Self { theta_entry, mu }
+        Self {
+            theta_entry,
+            mu,
+            theta_best: theta_entry,
+            stagnant: 0,
+        }
+    }
+
+    /// Records ||c||_2 of the current point; returns the steps without progress.
+    fn watch(&mut self, theta: f64) -> usize {
+        if theta < 0.99 * self.theta_best {
+            self.theta_best = theta;
+            self.stagnant = 0;
+        } else {
+            self.stagnant += 1;
+        }
+        self.stagnant
     }
 }
+
+/// Restoration steps without a 1 % decrease of the violation after which a (loosely)
+/// stationary point of the violation is taken as converged.
+const RESTO_STAGNATION: usize = 20;
 
 /// `a <= b` up to rounding in quantities of magnitude `base` (IPOPT's Compare_le).
 fn le(a: f64, b: f64, base: f64) -> bool {

@@ -552,3 +552,181 @@ pub fn plot_trajectory(traj: &Trajectory, path: &Path) -> Result<(), PlotError> 
     root.present().map_err(draw_err)?;
     Ok(())
 }
+
+/// Outline drawn by [`plot_footprint`]: Lexus LC 500 length and width [m] (spec sheet).
+const CAR_OUTLINE: (f64, f64) = (4.77, 1.92);
+
+/// Size of the PNG written by [`plot_footprint`] [px].
+pub const FOOTPRINT_SIZE: (u32, u32) = (1400, 900);
+
+/// Corners of the car's outline at node `k`: centred on the CG, turned to the body
+/// heading psi_ref + dpsi - beta (dpsi is the velocity's heading error, beta the sideslip).
+fn outline(center: &[(f64, f64, f64)], traj: &Trajectory, k: usize) -> [(f64, f64); 4] {
+    let (x, y, psi) = center[k];
+    let st = &traj.x[k];
+    let (px, py) = (x - st[ix::E] * psi.sin(), y + st[ix::E] * psi.cos());
+    let h = psi + st[ix::DPSI] - st[ix::BETA];
+    let (l, w) = (0.5 * CAR_OUTLINE.0, 0.5 * CAR_OUTLINE.1);
+    let (c, s) = (h.cos(), h.sin());
+    [(l, w), (l, -w), (-l, -w), (-l, w)].map(|(a, b)| (px + a * c - b * s, py + a * s + b * c))
+}
+
+/// Obstacles as polygons: where a node's bound is tighter than the road's outermost bound,
+/// the excluded strip between them (contiguous nodes form one polygon).
+fn obstacle_polygons(center: &[(f64, f64, f64)], traj: &Trajectory) -> Vec<Polyline> {
+    let road_min = traj.e_min.iter().copied().fold(f64::INFINITY, f64::min);
+    let road_max = traj.e_max.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let at = |k: usize, e: f64| {
+        let (x, y, psi) = center[k];
+        (x - e * psi.sin(), y + e * psi.cos())
+    };
+    let mut polys = Vec::new();
+    for right in [true, false] {
+        let blocked = |k: usize| {
+            if right {
+                traj.e_min[k] > road_min + 1e-9
+            } else {
+                traj.e_max[k] < road_max - 1e-9
+            }
+        };
+        let mut k = 0;
+        while k < center.len() {
+            if !blocked(k) {
+                k += 1;
+                continue;
+            }
+            let start = k;
+            while k < center.len() && blocked(k) {
+                k += 1;
+            }
+            let (edge, bound): (f64, &[f64]) = if right {
+                (road_min, &traj.e_min)
+            } else {
+                (road_max, &traj.e_max)
+            };
+            let mut poly: Polyline = (start..k).map(|j| at(j, edge)).collect();
+            poly.extend((start..k).rev().map(|j| at(j, bound[j])));
+            polys.push(poly);
+        }
+    }
+    polys
+}
+
+/// Writes the footprint figure: the road with its obstacles and the car's outline along
+/// the path (every other node, coloured by |beta|, so a drift shows as the body turned
+/// against the path), and sideslip against s below.
+pub fn plot_footprint(traj: &Trajectory, path: &Path) -> Result<(), PlotError> {
+    check_consistent(traj)?;
+    ensure_font()?;
+    let root = BitMapBackend::new(path, FOOTPRINT_SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(draw_err)?;
+    let (top, bottom) = root.split_vertically(560);
+    let center = centerline_xy(&traj.kappa, traj.ds);
+    let (right, left) = lane_edges_xy(traj);
+    let xs = right.iter().chain(&left).map(|p| p.0);
+    let ys = right.iter().chain(&left).map(|p| p.1);
+    let (xr, yr) = equal_aspect(
+        padded_range(xs),
+        padded_range(ys),
+        FOOTPRINT_SIZE.0 - 90,
+        560 - 90,
+    );
+    let title = format!(
+        "{}: footprint (colour = |beta|), max |beta| = {:.3} rad, t_N = {:.3} s",
+        traj.name,
+        traj.max_abs_beta(),
+        traj.t_final()
+    );
+    let mut chart = ChartBuilder::on(&top)
+        .caption(title, (FONT, 22))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(45)
+        .build_cartesian_2d(xr, yr)
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("x [m]")
+        .y_desc("y [m]")
+        .label_style((FONT, 14))
+        .draw()
+        .map_err(draw_err)?;
+    for poly in obstacle_polygons(&center, traj) {
+        chart
+            .draw_series(std::iter::once(Polygon::new(
+                poly,
+                RGBColor(200, 60, 60).mix(0.5).filled(),
+            )))
+            .map_err(draw_err)?;
+    }
+    for edge in [&right, &left] {
+        chart
+            .draw_series(LineSeries::new(edge.iter().copied(), BLACK.stroke_width(2)))
+            .map_err(draw_err)?;
+    }
+    let beta_max = traj.max_abs_beta().max(1e-6);
+    for k in (0..traj.x.len()).step_by(2) {
+        let corners = outline(&center, traj, k);
+        if corners.iter().any(|p| !p.0.is_finite() || !p.1.is_finite()) {
+            continue;
+        }
+        let colour = viridis(traj.x[k][ix::BETA].abs() / beta_max);
+        let mut closed = corners.to_vec();
+        closed.push(corners[0]);
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                closed,
+                colour.stroke_width(2),
+            )))
+            .map_err(draw_err)?;
+        // Nose marker: the front edge's midpoint.
+        let nose = (
+            0.5 * (corners[0].0 + corners[1].0),
+            0.5 * (corners[0].1 + corners[1].1),
+        );
+        chart
+            .draw_series(std::iter::once(Circle::new(nose, 2, colour.filled())))
+            .map_err(draw_err)?;
+    }
+    let s_max = traj.ds * traj.n_intervals() as f64;
+    let betas: Vec<(f64, f64)> = traj
+        .x
+        .iter()
+        .enumerate()
+        .map(|(k, x)| (k as f64 * traj.ds, x[ix::BETA]))
+        .collect();
+    let br = padded_range(betas.iter().map(|p| p.1).chain([0.0]));
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..s_max, br.clone())
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("s [m]")
+        .y_desc("sideslip beta [rad]")
+        .label_style((FONT, 14))
+        .draw()
+        .map_err(draw_err)?;
+    // Obstacle intervals shaded.
+    for (k, (lo, hi)) in traj.e_min.iter().zip(&traj.e_max).enumerate() {
+        let road_min = traj.e_min.iter().copied().fold(f64::INFINITY, f64::min);
+        let road_max = traj.e_max.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if *lo > road_min + 1e-9 || *hi < road_max - 1e-9 {
+            let s0 = (k as f64 - 0.5).max(0.0) * traj.ds;
+            let s1 = ((k as f64 + 0.5) * traj.ds).min(s_max);
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(s0, br.start), (s1, br.end)],
+                    RGBColor(200, 60, 60).mix(0.25).filled(),
+                )))
+                .map_err(draw_err)?;
+        }
+    }
+    chart
+        .draw_series(LineSeries::new(betas, BLUE.stroke_width(2)))
+        .map_err(draw_err)?;
+    root.present().map_err(draw_err)?;
+    Ok(())
+}

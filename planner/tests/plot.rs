@@ -139,3 +139,22 @@ fn plot_rejects_bad_input() {
         Err(PlotError::Draw(_))
     ));
 }
+
+#[test]
+fn footprint_figure_with_an_obstacle_writes_png() {
+    let mut t = synthetic();
+    // An obstacle narrows the right side over five nodes.
+    for k in 20..25 {
+        t.e_min[k] += 2.0;
+    }
+    let dir = std::env::temp_dir().join(format!("plot-footprint-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("footprint.png");
+    planner::plot::plot_footprint(&t, &png).unwrap();
+    let bytes = std::fs::read(&png).unwrap();
+    assert!(bytes.len() > 1000 && bytes.starts_with(b"\x89PNG"));
+    let _ = std::fs::remove_dir_all(&dir);
+    // Inconsistent input is an error, not a panic.
+    t.e_max.pop();
+    assert!(planner::plot::plot_footprint(&t, &png).is_err());
+}

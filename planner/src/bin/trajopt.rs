@@ -312,6 +312,11 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             Ok(()) => files.push(png),
             Err(e) => eprintln!("trajopt: warning: figure not written: {e}"),
         }
+        let foot = args.out_dir.join(format!("{name}_footprint.png"));
+        match planner::plot::plot_footprint(&traj, &foot) {
+            Ok(()) => files.push(foot),
+            Err(e) => eprintln!("trajopt: warning: footprint figure not written: {e}"),
+        }
     }
 
     let eq = planner.equilibrium();

@@ -15,6 +15,6 @@ pub mod transcription;
 pub use layout::Layout;
 pub use spec::{InitialState, OcpSpec};
 pub use transcription::{
-    DefectScheme, Derivatives, ImplicitEuler, ImplicitEulerNlp, RowInfo, RowKind, Transcription,
-    TranscriptionError,
+    CrankNicolson, DefectScheme, Derivatives, ExplicitRk2, ExplicitRk4, GaussLegendre2,
+    ImplicitEuler, ImplicitEulerNlp, RowInfo, RowKind, Transcription, TranscriptionError,
 };

@@ -6,7 +6,10 @@
 //! of [`crate::ocp::path_constraints`]. A [`DefectScheme`] supplies only the dynamics defect
 //! rows of each interval (plus, for collocation schemes, its stage variables), so other
 //! integrators (RK2/4, BDF, Crank-Nicolson, Gauss-Legendre) plug in without touching the
-//! model, the shared constraints or the solver. [`ImplicitEuler`] is the first scheme.
+//! model, the shared constraints or the solver. [`ImplicitEuler`] (hand-written fast
+//! derivatives) was the first scheme; [`CrankNicolson`], [`ExplicitRk2`], [`ExplicitRk4`]
+//! and [`GaussLegendre2`] (stage states as NLP variables) share the formulas of [`steps`]
+//! and take exact derivatives from the num-dual oracle.
 //!
 //! Rows are ordered stage by stage: first the initial-condition rows, then for each
 //! interval k = 0..N-1: the scheme's defect rows, the two front friction rows (R9), the two
@@ -16,8 +19,17 @@
 //! from s_0 = 0 and the linear s defects (ds/ds = 1), so adding it would make the constraint
 //! Jacobian rank deficient (a redundant equality the interior-point solver cannot handle).
 
+pub mod crank_nicolson;
+mod dense;
+pub mod explicit_rk;
+pub mod gauss_legendre;
 pub mod implicit_euler;
+mod one_step;
+pub mod steps;
 
+pub use crank_nicolson::CrankNicolson;
+pub use explicit_rk::{ExplicitRk2, ExplicitRk4};
+pub use gauss_legendre::GaussLegendre2;
 pub use implicit_euler::ImplicitEuler;
 
 use super::layout::Layout;

@@ -10,8 +10,11 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use plan_record::{now_ns, Record, Recorder};
+use planner::guess::GuessKind;
 use planner::ip::Status;
 use planner::model::{ix, NU, NX};
+use planner::ocp::InitialState;
 use planner::plan::{Planner, ReplanGuess};
 
 use crate::clock::monotonic_ns;
@@ -58,6 +61,11 @@ pub struct PlannerArgs {
     /// Stop after this many seconds (0: run until stopped).
     #[arg(long, default_value_t = 0.0)]
     pub max_runtime_s: f64,
+    /// Record every equilibrium-started plan's input and output to this MCAP file (built and
+    /// queued after the plan is published, outside the timed solve; `replay run` re-solves
+    /// them). Warm-started plans are counted, not recorded (a recording cannot hold the guess).
+    #[arg(long)]
+    pub record: Option<PathBuf>,
 }
 
 /// Why the planner process failed.
@@ -173,6 +181,16 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
     settings.max_time_s = args.max_solve_s;
     let ds = sc.ds();
     let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
+    let recorder =
+        match &args.record {
+            // Room for ~7 minutes at 10 Hz; beyond that, records are dropped and counted.
+            Some(path) => Some(Recorder::create(path, 8192).map_err(|e| {
+                PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
+            })?),
+            None => None,
+        };
+    let mut rec_spec = sc.spec.clone();
+    let mut not_recorded = 0u64;
     let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
         .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
     let mut cy = Cycle {
@@ -259,6 +277,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         next_tick = (next_tick + period).max(Instant::now());
 
         // ---- planning cycle
+        let stamp_in = now_ns();
         let t0 = Instant::now();
         let s_track = state.x[ix::S];
         sc.road
@@ -373,11 +392,58 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         notifier.notify().map_err(ipc_err("notify trajectory"))?;
         published += 1;
         cycle_lat.record_ns(t0.elapsed().as_nanos() as u64);
+
+        // ---- record (after publishing; allocates)
+        if let Some(rec) = &recorder {
+            if warm_started {
+                not_recorded += 1;
+            } else {
+                rec_spec.kappa.clear();
+                rec_spec.kappa.extend_from_slice(&cy.road.kappa);
+                rec_spec.e_min.clear();
+                rec_spec.e_min.extend_from_slice(&cy.road.e_min);
+                rec_spec.e_max.clear();
+                rec_spec.e_max.extend_from_slice(&cy.road.e_max);
+                rec_spec.initial = InitialState::Fixed(x0);
+                let seq = published - 1;
+                let input = planner::record::plan_input(
+                    &rec_spec,
+                    &settings,
+                    GuessKind::Equilibrium,
+                    seq,
+                    stamp_in,
+                );
+                rec.record(Record::Input(Box::new(input)));
+                let output = planner::record::plan_output(
+                    seq,
+                    now_ns(),
+                    &info,
+                    cy.planner.states(),
+                    cy.planner.controls(),
+                );
+                rec.record(Record::Output(Box::new(output)));
+            }
+        }
     }
     eprintln!(
         "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged), {} states dropped",
         rejected.total()
     );
+    let recording = match (recorder, &args.record) {
+        (Some(rec), Some(path)) => {
+            let stats = rec.finish().map_err(|e| {
+                PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
+            })?;
+            serde_json::json!({
+                "file": path.display().to_string(),
+                "inputs": stats.inputs,
+                "outputs": stats.outputs,
+                "dropped": stats.dropped,
+                "warm_started_not_recorded": not_recorded,
+            })
+        }
+        _ => serde_json::Value::Null,
+    };
     let ms = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-6;
     Ok(serde_json::json!({
         "process": "planner",
@@ -398,5 +464,6 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         "cycle_ms_max": cycle_lat.max_ns() as f64 * 1e-6,
         "state_age_at_receive_us": state_ipc_lat.json_us(),
         "rate_hz": args.rate_hz,
+        "recording": recording,
     }))
 }

@@ -175,6 +175,11 @@ impl Services {
             .map_err(ipc_err("create trajectory listener"))
     }
 
+    /// Number of vehicle-state subscribers currently connected (all processes).
+    pub fn state_subscriber_count(&self) -> usize {
+        self.state.dynamic_config().number_of_subscribers()
+    }
+
     /// True when SIGINT/SIGTERM was received (iceoryx2's signal handler).
     pub fn termination_requested(&self) -> bool {
         self.node.wait(core::time::Duration::ZERO).is_err()

@@ -40,7 +40,9 @@ pub enum PlanError {
 /// The starting point of [`Planner::replan`].
 #[derive(Debug, Clone, Copy)]
 pub enum ReplanGuess<'a> {
-    /// The cached equilibrium guess, with x_0 set to the fixed initial state.
+    /// The equilibrium guess at the speed of x0 (recomputed when that speed changed, so a
+    /// replan equals a fresh [`Planner::new`] + [`Planner::solve`] bit for bit), with x_0
+    /// set to the fixed initial state.
     Equilibrium,
     /// A caller-built guess (e.g. the previous solution shifted in s): N + 1 states, N controls.
     Warm(&'a [[f64; NX]], &'a [[f64; NU]]),
@@ -52,6 +54,8 @@ pub struct Planner<const N: usize> {
     nlp: ImplicitEulerNlp<N>,
     solver: Solver,
     equilibrium: Equilibrium,
+    /// Speed the cached equilibrium was computed for.
+    v_start: f64,
     xs: Vec<[f64; NX]>,
     us: Vec<[f64; NU]>,
 }
@@ -70,6 +74,7 @@ impl<const N: usize> Planner<N> {
             nlp,
             solver,
             equilibrium,
+            v_start,
             xs: vec![[0.0; NX]; N + 1],
             us: vec![[0.0; NU]; N],
         })
@@ -177,7 +182,15 @@ impl<const N: usize> Planner<N> {
         self.nlp.update_road(kappa, e_min, e_max)?;
         self.nlp.set_initial(InitialState::Fixed(x0));
         match guess {
-            ReplanGuess::Equilibrium => self.set_guess(GuessKind::Equilibrium),
+            ReplanGuess::Equilibrium => {
+                if x0[ix::V].to_bits() != self.v_start.to_bits() {
+                    let spec = self.nlp.spec();
+                    self.equilibrium =
+                        guess::equilibrium(&spec.vehicle, spec.v_min, spec.v_max, x0[ix::V])?;
+                    self.v_start = x0[ix::V];
+                }
+                self.set_guess(GuessKind::Equilibrium)
+            }
             ReplanGuess::Warm(xs, us) => self.nlp.set_initial_guess(xs, us),
         }
         let info = self.solver.solve(&mut self.nlp);

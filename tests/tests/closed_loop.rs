@@ -6,6 +6,16 @@
 
 use std::path::PathBuf;
 use std::process::Command;
+use std::sync::{Mutex, MutexGuard};
+
+/// Serialises the tests of this file so two closed loops never compete for the cores.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> MutexGuard<'static, ()> {
+    SERIAL
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
 
 fn bin_dir() -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
@@ -16,7 +26,7 @@ fn bin_dir() -> PathBuf {
         .to_path_buf()
 }
 
-fn run_closed_loop(distance_m: f64) -> serde_json::Value {
+fn run_closed_loop(distance_m: f64, extra: &[&str]) -> serde_json::Value {
     let dir = bin_dir();
     for b in ["trajopt", "planner_proc", "tracker_proc"] {
         assert!(
@@ -36,6 +46,7 @@ fn run_closed_loop(distance_m: f64) -> serde_json::Value {
             "--duration-s",
             "60",
         ])
+        .args(extra)
         .output()
         .expect("run trajopt closed-loop");
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -45,10 +56,11 @@ fn run_closed_loop(distance_m: f64) -> serde_json::Value {
 
 /// The issue's acceptance criterion: one lap of the oval over iceoryx2, the car stays in the
 /// lane and within 0.5 m of the plan, and both processes shut down (the command returns
-/// only after both exited). One test, so two closed loops never compete for the 2 cores.
+/// only after both exited).
 #[test]
 fn closed_loop_oval_lap_keeps_lane_and_tracks_plan() {
-    let v = run_closed_loop(0.0);
+    let _serial = serial();
+    let v = run_closed_loop(0.0, &[]);
     for k in [
         "laps_or_distance_m",
         "plans_received",
@@ -70,4 +82,44 @@ fn closed_loop_oval_lap_keeps_lane_and_tracks_plan() {
     assert_eq!(v["lane_kept"], serde_json::json!(true), "{v}");
     let max_e = v["max_lateral_error_m"].as_f64().unwrap_or(f64::INFINITY);
     assert!(max_e < 0.5, "max lateral error {max_e} m\n{v}");
+}
+
+/// Issue 5: `trajopt closed-loop --record` records every plan of the closed loop, and
+/// `replay run` re-solves each input bit-identically (exit 0, "deterministic": true).
+#[test]
+fn closed_loop_recording_replays_bit_identically() {
+    let _serial = serial();
+    let replay = bin_dir().join("replay");
+    assert!(
+        replay.is_file(),
+        "{} missing: build with `cargo build -p replay --bins` (same profile)",
+        replay.display()
+    );
+    let file = std::env::temp_dir().join(format!("e2e-closed-loop-{}.mcap", std::process::id()));
+    let _ = std::fs::remove_file(&file);
+    let path = file.to_string_lossy().into_owned();
+    let v = run_closed_loop(30.0, &["--record", &path]);
+    let rec = &v["planner"]["recording"];
+    let inputs = rec["inputs"].as_u64().unwrap_or(0);
+    assert!(inputs >= 5, "{rec}");
+    assert_eq!(rec["outputs"].as_u64(), Some(inputs), "{rec}");
+    assert_eq!(rec["dropped"], 0, "{rec}");
+    assert_eq!(
+        v["planner"]["plans_published"].as_u64(),
+        Some(inputs),
+        "every (equilibrium-started) plan recorded: {v}"
+    );
+
+    let out = Command::new(&replay)
+        .args(["run", &path, "--json"])
+        .output()
+        .expect("run replay");
+    let _ = std::fs::remove_file(&file);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("bad replay JSON ({e}):\n{stderr}"));
+    assert!(out.status.success(), "replay run failed:\n{stderr}");
+    assert_eq!(r["deterministic"], true, "{stderr}");
+    assert_eq!(r["identical"].as_u64(), Some(inputs), "{stderr}");
+    assert_eq!(r["different"], 0, "{stderr}");
 }

@@ -69,6 +69,9 @@ struct ClosedLoopArgs {
     /// Print exactly one JSON object on stdout (summary goes to stderr).
     #[arg(long)]
     json: bool,
+    /// Record the planner's inputs and outputs to this MCAP file (`planner_proc --record`).
+    #[arg(long)]
+    record: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -547,6 +550,9 @@ fn closed_loop(args: ClosedLoopArgs) -> Result<(), String> {
     let mut pc = Proc::new(&planner_exe);
     files(&mut pc);
     pc.arg("--rate-hz").arg(args.rate_hz.to_string());
+    if let Some(path) = &args.record {
+        pc.arg("--record").arg(path);
+    }
     let mut planner = ChildGuard(Some(
         pc.spawn()
             .map_err(|e| format!("{}: {e}", planner_exe.display()))?,

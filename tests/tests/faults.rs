@@ -1,0 +1,313 @@
+//! End-to-end fault tests of the iceoryx2 closed loop (issue 4): the processes are spawned
+//! directly (`planner_proc`, `tracker_proc`, and the `inject_state` test helper) from the
+//! test's target profile folder; build them first (`cargo build -p ipc --bins`, same
+//! profile; `cargo test --workspace` does).
+//!
+//! Every test uses its own service prefix and kills its children when it fails (guard
+//! `Drop`). The tests share one lock so two closed loops never compete for the cores.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Serialises the tests of this file (each runs a closed loop on the shared cores).
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> MutexGuard<'static, ()> {
+    SERIAL
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+fn bin_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/faults-<hash> -> target/<profile>
+    exe.parent()
+        .and_then(|d| d.parent())
+        .expect("target profile folder")
+        .to_path_buf()
+}
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn prefix(tag: &str) -> String {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.subsec_nanos())
+        .unwrap_or(0);
+    format!("e2e-faults-{tag}-{}-{nanos}", std::process::id())
+}
+
+fn command(bin: &str) -> Command {
+    let path = bin_dir().join(bin);
+    assert!(
+        path.is_file(),
+        "{} missing: build with `cargo build -p ipc --bins` (same profile)",
+        path.display()
+    );
+    let mut c = Command::new(path);
+    c.current_dir(repo());
+    c
+}
+
+/// A child process whose stderr is collected line by line (and watchable); killed on drop.
+struct Proc {
+    name: &'static str,
+    child: Child,
+    stdin: Option<ChildStdin>,
+    lines: Receiver<String>,
+    log: Arc<Mutex<String>>,
+    stderr_thread: Option<JoinHandle<()>>,
+}
+
+impl Proc {
+    /// Spawns `cmd` with piped stdin/stdout/stderr.
+    fn spawn(name: &'static str, mut cmd: Command) -> Self {
+        let mut child = cmd
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("spawn {name}: {e}"));
+        let stdin = child.stdin.take();
+        let stderr = child.stderr.take().expect("piped stderr");
+        let (tx, lines) = channel();
+        let log = Arc::new(Mutex::new(String::new()));
+        let log2 = log.clone();
+        let stderr_thread = std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                if let Ok(mut l) = log2.lock() {
+                    l.push_str(&line);
+                    l.push('\n');
+                }
+                let _ = tx.send(line);
+            }
+        });
+        Self {
+            name,
+            child,
+            stdin,
+            lines,
+            log,
+            stderr_thread: Some(stderr_thread),
+        }
+    }
+
+    fn log(&self) -> String {
+        self.log.lock().map(|l| l.clone()).unwrap_or_default()
+    }
+
+    /// Waits until a stderr line contains `needle`; panics (with the log) on timeout or exit.
+    fn wait_line(&self, needle: &str, timeout: Duration) {
+        let until = Instant::now() + timeout;
+        loop {
+            let left = until.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(l) if l.contains(needle) => return,
+                Ok(_) => {}
+                Err(RecvTimeoutError::Timeout) => panic!(
+                    "{}: no line containing {needle:?} within {timeout:?}; stderr:\n{}",
+                    self.name,
+                    self.log()
+                ),
+                Err(RecvTimeoutError::Disconnected) => panic!(
+                    "{}: exited before printing {needle:?}; stderr:\n{}",
+                    self.name,
+                    self.log()
+                ),
+            }
+        }
+    }
+
+    /// SIGKILL (the fault being tested), then reap.
+    fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// Closes stdin (the processes' stop request when run with `--exit-on-stdin-eof`).
+    fn close_stdin(&mut self) {
+        self.stdin = None;
+    }
+
+    /// Waits for exit (killing after `timeout`); returns the JSON summary on stdout.
+    fn finish(mut self, timeout: Duration) -> serde_json::Value {
+        let until = Instant::now() + timeout;
+        let status = loop {
+            match self.child.try_wait() {
+                Ok(Some(s)) => break s,
+                Ok(None) if Instant::now() < until => std::thread::sleep(Duration::from_millis(20)),
+                Ok(None) => {
+                    self.kill();
+                    panic!(
+                        "{} did not exit within {timeout:?}; stderr:\n{}",
+                        self.name,
+                        self.log()
+                    );
+                }
+                Err(e) => panic!("{}: wait: {e}", self.name),
+            }
+        };
+        if let Some(t) = self.stderr_thread.take() {
+            let _ = t.join();
+        }
+        let mut out = String::new();
+        if let Some(mut o) = self.child.stdout.take() {
+            let _ = std::io::Read::read_to_string(&mut o, &mut out);
+        }
+        assert!(
+            status.success(),
+            "{} failed ({status}); stderr:\n{}",
+            self.name,
+            self.log()
+        );
+        serde_json::from_str(out.trim()).unwrap_or_else(|e| {
+            panic!(
+                "{}: bad JSON ({e}): {out:?}; stderr:\n{}",
+                self.name,
+                self.log()
+            )
+        })
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        // No-op when already reaped; kills the process when a test failed half-way.
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+fn planner(prefix: &str) -> Proc {
+    let mut c = command("planner_proc");
+    c.args(["--service-prefix", prefix, "--exit-on-stdin-eof"]);
+    Proc::spawn("planner_proc", c)
+}
+
+fn tracker(prefix: &str, extra: &[&str]) -> Proc {
+    let mut c = command("tracker_proc");
+    c.args(["--service-prefix", prefix, "--exit-on-stdin-eof"])
+        .args(["--first-plan-timeout-s", "60"])
+        .args(extra);
+    Proc::spawn("tracker_proc", c)
+}
+
+const START: Duration = Duration::from_secs(60);
+
+/// (a) SIGKILL the tracker mid-drive and start a new one: the planner keeps running and
+/// serves the new tracker, which drives its distance on fresh plans.
+#[test]
+fn tracker_restart_is_served_by_the_running_planner() {
+    let _serial = serial();
+    let p = prefix("restart");
+    let mut plan = planner(&p);
+    plan.wait_line("planner: up", START);
+
+    let mut t1 = tracker(&p, &["--distance-m", "200", "--duration-s", "60"]);
+    t1.wait_line("first plan", START);
+    std::thread::sleep(Duration::from_millis(1000));
+    t1.kill();
+
+    // The planner must survive the dead peer.
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(
+        matches!(plan.child.try_wait(), Ok(None)),
+        "planner exited after the tracker was killed; stderr:\n{}",
+        plan.log()
+    );
+
+    let t2 = tracker(&p, &["--distance-m", "40", "--duration-s", "30"]);
+    let s2 = t2.finish(Duration::from_secs(120));
+    assert_eq!(s2["end_reason"], "distance reached", "{s2}");
+    assert!(
+        s2["laps_or_distance_m"].as_f64().unwrap_or(0.0) >= 40.0,
+        "{s2}"
+    );
+    assert!(s2["plans_received"].as_u64().unwrap_or(0) >= 3, "{s2}");
+    assert_eq!(s2["lane_kept"], true, "{s2}");
+    assert_eq!(s2["stale"], false, "{s2}");
+
+    plan.close_stdin();
+    let sp = plan.finish(Duration::from_secs(30));
+    let t2_plans = s2["plans_received"].as_u64().unwrap_or(0);
+    assert!(
+        sp["plans_published"].as_u64().unwrap_or(0) > t2_plans,
+        "planner published fewer plans than the two trackers received: {sp}\n{s2}"
+    );
+}
+
+/// (b) SIGKILL the planner: the tracker holds the last plan, flags it stale after
+/// `--stale-after-s` and brakes to a stop, then exits on its own.
+#[test]
+fn planner_death_makes_tracker_flag_stale_and_stop() {
+    let _serial = serial();
+    let p = prefix("stale");
+    let mut plan = planner(&p);
+    plan.wait_line("planner: up", START);
+    let tr = tracker(
+        &p,
+        &[
+            "--distance-m",
+            "1000",
+            "--duration-s",
+            "60",
+            "--stale-after-s",
+            "0.5",
+        ],
+    );
+    tr.wait_line("first plan", START);
+    std::thread::sleep(Duration::from_millis(1000));
+    plan.kill();
+    tr.wait_line("is stale", Duration::from_secs(30));
+    let s = tr.finish(Duration::from_secs(60));
+    assert_eq!(s["stale"], true, "{s}");
+    assert_eq!(s["stopped"], true, "{s}");
+    assert_eq!(s["end_reason"], "stopped", "{s}");
+    assert!(
+        s["final_speed_mps"].as_f64().unwrap_or(f64::NAN) < 0.5,
+        "{s}"
+    );
+    assert_eq!(s["lane_kept"], true, "{s}");
+    assert!(s["stale_at_sim_s"].as_f64().is_some(), "{s}");
+}
+
+/// (c) States with NaN or absurd values (and wrong version/road) are counted by reason and
+/// dropped: the planner never solves from them, and still plans from the next good state.
+#[test]
+fn bad_states_are_counted_and_never_planned_from() {
+    let _serial = serial();
+    let p = prefix("badstate");
+    let mut plan = planner(&p);
+    plan.wait_line("planner: up", START);
+    let mut inj = command("inject_state");
+    inj.args(["--service-prefix", &p])
+        .args(["--send", "nan,range,version,road,good"])
+        .args(["--gap-s", "0.5", "--wait-plan-s", "60"]);
+    let inj = Proc::spawn("inject_state", inj).finish(Duration::from_secs(120));
+
+    plan.close_stdin();
+    let sp = plan.finish(Duration::from_secs(30));
+    let by = &sp["states_rejected_by_reason"];
+    assert_eq!(by["non_finite"], 1, "{sp}");
+    assert_eq!(by["range"], 1, "{sp}");
+    assert_eq!(by["version"], 1, "{sp}");
+    assert_eq!(by["road"], 1, "{sp}");
+    assert_eq!(sp["states_rejected"], 4, "{sp}");
+    assert_eq!(sp["states_received"], 5, "{sp}");
+    // Exactly one plan, from the good state (seq 1004): none from the bad ones.
+    assert_eq!(sp["plans_published"], 1, "{sp}");
+    assert_eq!(
+        inj["plans_from_state_seq"],
+        serde_json::json!([1004]),
+        "{inj}"
+    );
+}

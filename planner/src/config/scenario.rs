@@ -278,6 +278,25 @@ fn names(
     Ok(out)
 }
 
+/// The selected entry of an array of named tables (`array`, entries called `what`), with
+/// its name; names must be present and unique.
+fn pick<T>(
+    f: Fields<'_>,
+    entries: Vec<T>,
+    name_of: impl Fn(&T) -> Option<String>,
+    array: &str,
+    what: &str,
+    select: Option<&str>,
+) -> Result<(String, T), ConfigError> {
+    let available = names(f, entries.iter().map(name_of), array)?;
+    let idx = select_index(f, &available, select, what)?;
+    let entry = entries
+        .into_iter()
+        .nth(idx)
+        .ok_or_else(|| f.invalid(array, idx, "index out of range"))?;
+    Ok((available[idx].clone(), entry))
+}
+
 /// Index of the selected entry among `available`.
 fn select_index(
     f: Fields<'_>,
@@ -557,13 +576,14 @@ fn segments(
     vehicle: VehicleParams,
 ) -> Result<OcpSpec, ConfigError> {
     let entries = file.segments.unwrap_or_default();
-    let available = names(f, entries.iter().map(|s| s.name.clone()), "segments")?;
-    let idx = select_index(f, &available, select, "segment")?;
-    let name = available[idx].clone();
-    let seg = entries
-        .into_iter()
-        .nth(idx)
-        .ok_or_else(|| f.invalid("segments", idx, "index out of range"))?;
+    let (name, seg) = pick(
+        f,
+        entries,
+        |s| s.name.clone(),
+        "segments",
+        "segment",
+        select,
+    )?;
     let at = |k: &str| format!("segments[{name}].{k}");
 
     let d = f.req(file.defaults, "defaults")?;
@@ -663,13 +683,14 @@ fn obstacles(
     vehicle: VehicleParams,
 ) -> Result<OcpSpec, ConfigError> {
     let entries = file.scenarios.unwrap_or_default();
-    let available = names(f, entries.iter().map(|s| s.name.clone()), "scenarios")?;
-    let idx = select_index(f, &available, select, "scenario")?;
-    let name = available[idx].clone();
-    let sc = entries
-        .into_iter()
-        .nth(idx)
-        .ok_or_else(|| f.invalid("scenarios", idx, "index out of range"))?;
+    let (name, sc) = pick(
+        f,
+        entries,
+        |s| s.name.clone(),
+        "scenarios",
+        "scenario",
+        select,
+    )?;
 
     objective(f, file.objective.as_deref(), "objective")?;
     let c = f.req(file.common, "common")?;

@@ -820,7 +820,7 @@ impl<K: KktSolver> Solver<K> {
         if res.is_err() {
             return;
         }
-        self.solve_direction(0.0, Some(()));
+        self.solve_direction(0.0, true);
         let ws = &mut self.ws;
         let y_max = ws.dy.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         if y_max.is_finite() && y_max <= Y_MAX {
@@ -981,19 +981,19 @@ impl<K: KktSolver> Solver<K> {
         match rule {
             BarrierRule::Monotone => {
                 self.set_targets(mu, false);
-                self.solve_direction(delta_w, None);
+                self.solve_direction(delta_w, false);
                 (mu, StepKind::Newton)
             }
             BarrierRule::Loqo => {
                 let mu_new = barrier::loqo(&self.ws, err.mu_avg).clamp(s.mu_min, mu_max);
                 self.set_targets(mu_new, false);
-                self.solve_direction(delta_w, None);
+                self.solve_direction(delta_w, false);
                 (mu_new, StepKind::Newton)
             }
             BarrierRule::Fullmpc | BarrierRule::Dampmpc => {
                 // Predictor: affine-scaling step (mu = 0).
                 self.set_targets(0.0, false);
-                self.solve_direction(delta_w, None);
+                self.solve_direction(delta_w, false);
                 let tau = 1.0;
                 let (ap, ad) = self.max_steps(tau);
                 let mu_aff = barrier::complementarity_after(&self.ws, ap, ad);
@@ -1015,23 +1015,23 @@ impl<K: KktSolver> Solver<K> {
                 if rule == BarrierRule::Dampmpc {
                     // Centering step first, then the corrector only if it is not shorter.
                     self.set_targets(mu_new, false);
-                    self.solve_direction(delta_w, None);
+                    self.solve_direction(delta_w, false);
                     let tau = (1.0 - mu_new).max(s.tau_min);
                     let (cp, cd) = self.max_steps(tau);
                     let center_step = cp.min(cd);
                     self.set_targets(mu_new, true);
-                    self.solve_direction(delta_w, None);
+                    self.solve_direction(delta_w, false);
                     let (kp, kd) = self.max_steps(tau);
                     if kp.min(kd) >= 0.95 * center_step {
                         (mu_new, StepKind::Corrected)
                     } else {
                         self.set_targets(mu_new, false);
-                        self.solve_direction(delta_w, None);
+                        self.solve_direction(delta_w, false);
                         (mu_new, StepKind::Newton)
                     }
                 } else {
                     self.set_targets(mu_new, true);
-                    self.solve_direction(delta_w, None);
+                    self.solve_direction(delta_w, false);
                     (mu_new, StepKind::Corrected)
                 }
             }
@@ -1063,10 +1063,10 @@ impl<K: KktSolver> Solver<K> {
         }
     }
 
-    /// Solves for (dw, dy, dzl, dzu) with the current targets. `c_override` replaces the
-    /// constraint residual (second-order correction).
-    fn solve_direction(&mut self, delta_w: f64, c_override: Option<()>) {
-        self.solve_direction_mode(delta_w, c_override.is_some(), false);
+    /// Solves for (dw, dy, dzl, dzu) with the current targets; with `soc` the constraint
+    /// residual is `tmp_m` (second-order correction) instead of c.
+    fn solve_direction(&mut self, delta_w: f64, soc: bool) {
+        self.solve_direction_mode(delta_w, soc, false);
     }
 
     /// As [`Self::solve_direction`]; `feasibility` drops the objective and multiplier terms
@@ -1255,7 +1255,7 @@ impl<K: KktSolver> Solver<K> {
                 let mut theta_soc_prev = theta;
                 let mut accepted = false;
                 for _ in 0..MAX_SOC {
-                    self.solve_direction(delta_w, Some(()));
+                    self.solve_direction(delta_w, true);
                     let (ap, az) = self.max_steps(tau);
                     self.set_trial(ap);
                     let Some((f_s, theta_s, phi_s)) = self.eval_trial(nlp, mu, teval, evals) else {
@@ -1420,7 +1420,6 @@ impl<K: KktSolver> Solver<K> {
             let theta_lin = norm2(&ws.tmp_m);
             (gd, curv, theta, theta_lin)
         };
-        let _ = delta_w;
         // Penalty update so the step is a descent direction of the merit (Nocedal-Wright 18.36).
         let rho = 0.1;
         let reduction = theta - theta_lin;
@@ -1484,7 +1483,7 @@ impl<K: KktSolver> Solver<K> {
                 ws.tmp_m[i] = alpha * ws.c[i] + ws.c_t[i];
             }
         }
-        self.solve_direction(delta_w, Some(()));
+        self.solve_direction(delta_w, true);
         let (ap, az) = self.max_steps(tau);
         self.set_trial(ap);
         let Some((f_t, _, _)) = self.eval_trial(nlp, mu, teval, evals) else {
@@ -1504,7 +1503,7 @@ impl<K: KktSolver> Solver<K> {
 
     /// Recomputes the regular direction after a failed correction (same targets).
     fn restore_direction(&mut self, delta_w: f64) {
-        self.solve_direction(delta_w, None);
+        self.solve_direction(delta_w, false);
     }
 
     /// Takes the step: w = w_t (already holding w + alpha dw), y += alpha dy, z += alpha_z dz.

@@ -8,6 +8,7 @@ use plan_record::{
 };
 
 use crate::guess::GuessKind;
+use crate::ip::kkt::KktBackendKind;
 use crate::ip::{BarrierRule, Globalization, Settings, SolveInfo};
 use crate::model::{VehicleParams, NU, NX};
 use crate::ocp::{InitialState, OcpSpec};
@@ -141,6 +142,11 @@ pub fn settings_to_array(s: &Settings) -> [f64; SETTINGS_LEN] {
         s.mu_superlinear_power,
         s.barrier_tol_factor,
         s.delta_w_decrease,
+        match s.kkt {
+            KktBackendKind::Auto => 0.0,
+            KktBackendKind::Sparse => 1.0,
+            KktBackendKind::Riccati => 2.0,
+        },
     ]
 }
 
@@ -165,6 +171,11 @@ fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, Stri
     let globalization = match int_field(v, 13, 1)? {
         0 => Globalization::Filter,
         _ => Globalization::Merit,
+    };
+    let kkt = match int_field(v, 33, 2)? {
+        0 => KktBackendKind::Auto,
+        1 => KktBackendKind::Sparse,
+        _ => KktBackendKind::Riccati,
     };
     Ok(Settings {
         tol: v[0],
@@ -200,6 +211,7 @@ fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, Stri
         mu_superlinear_power: v[30],
         barrier_tol_factor: v[31],
         delta_w_decrease: v[32],
+        kkt,
     })
 }
 

@@ -4,14 +4,25 @@ use std::path::Path;
 
 use planner::config::{load_scenario, load_solver, load_vehicle};
 use planner::guess::GuessKind;
+use planner::ip::kkt::KktBackendKind;
 use planner::plan::Planner;
 
 #[test]
 fn oval_solve_allocates_nothing() {
+    oval_solve_allocates_nothing_with(KktBackendKind::Sparse);
+}
+
+#[test]
+fn oval_solve_with_riccati_backend_allocates_nothing() {
+    oval_solve_allocates_nothing_with(KktBackendKind::Riccati);
+}
+
+fn oval_solve_allocates_nothing_with(kkt: KktBackendKind) {
     let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
     let vehicle = load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
     let spec = load_scenario(&root.join("scenarios/oval.toml"), None, vehicle).unwrap();
-    let settings = load_solver(&root.join("solver.toml")).unwrap();
+    let mut settings = load_solver(&root.join("solver.toml")).unwrap();
+    settings.kkt = kkt;
     let mut p = Planner::<100>::new(spec, settings).unwrap();
     // Warm-up solve (any lazily sized buffer is sized here).
     p.solve(GuessKind::Equilibrium);

@@ -42,4 +42,9 @@ pub trait Nlp {
     fn eval_jac_g(&mut self, x: &[f64], vals: &mut [f64]);
     /// Hessian of `obj_factor * f + lambda^T g`, lower triangle, in `hess_structure` order.
     fn eval_hess(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], vals: &mut [f64]);
+    /// Stage structure of an optimal-control NLP, which lets the solver use the Riccati
+    /// KKT backend; `None` (the default) leaves it the general sparse one.
+    fn stage_structure(&self) -> Option<super::kkt::StageStructure> {
+        None
+    }
 }

@@ -1,6 +1,7 @@
 //! Solver settings: tolerances, caps on every loop, and the barrier rule. Loaded from
 //! `config/solver.toml` (all keys optional; unknown keys are rejected).
 
+use super::kkt::KktBackendKind;
 use serde::{Deserialize, Serialize};
 
 /// Barrier parameter update rule (paper Sec. VI-C, Table IV).
@@ -134,6 +135,9 @@ pub struct Settings {
     pub delta_c_min: f64,
     /// Relative threshold on the infeasibility-stationarity measure for `locally_infeasible`.
     pub infeas_stat_tol: f64,
+    /// KKT backend: `auto` (Riccati where the stage structure allows, else sparse),
+    /// `sparse` or `riccati`.
+    pub kkt: KktBackendKind,
 }
 
 impl Default for Settings {
@@ -172,6 +176,7 @@ impl Default for Settings {
             delta_w_decrease: 10.0,
             delta_c_min: 1e-10,
             infeas_stat_tol: 1e-6,
+            kkt: KktBackendKind::Sparse,
         }
     }
 }

@@ -6,7 +6,8 @@ use std::time::Instant;
 
 use super::barrier;
 use super::info::{IterLog, PhaseTimes, SolveInfo, Status, StepKind};
-use super::kkt::{KktError, KktSolver, KktValues, SparseLdlt};
+use super::kkt::backend::{BackendError, Pattern};
+use super::kkt::{KktBackend, KktError, KktSolver, KktValues};
 use super::nlp::Nlp;
 use super::residuals::{self, compute_errors, Errors};
 use super::settings::{BarrierRule, Globalization, Settings};
@@ -20,12 +21,12 @@ pub enum SetupError {
     Settings(#[from] super::settings::SettingsError),
     /// The KKT backend could not analyse the structure.
     #[error(transparent)]
-    Kkt(#[from] super::kkt::sparse_ldlt::SymbolicError),
+    Kkt(#[from] BackendError),
 }
 
 /// Interior-point solver for one problem structure; all memory is allocated in `new`.
 #[derive(Debug)]
-pub struct Solver<K: KktSolver = SparseLdlt> {
+pub struct Solver<K: KktSolver = KktBackend> {
     settings: Settings,
     ws: Workspace,
     kkt: K,
@@ -39,18 +40,24 @@ struct Factorization {
     count: usize,
 }
 
-impl Solver<SparseLdlt> {
-    /// Builds a solver with the general sparse LDL^T backend.
+impl Solver<KktBackend> {
+    /// Builds a solver with the KKT backend `settings.kkt` selects (default: Riccati when
+    /// the NLP publishes a stage structure it fits, the general sparse LDL^T otherwise).
     pub fn new<P: Nlp + ?Sized>(nlp: &P, settings: Settings) -> Result<Self, SetupError> {
         settings.validate()?;
         let ws = Workspace::new(nlp, settings.max_iter + 2);
-        let kkt = SparseLdlt::new(
-            ws.n,
-            ws.m,
-            &ws.hess_rows,
-            &ws.hess_cols,
-            &ws.jac_rows,
-            &ws.jac_cols,
+        let structure = nlp.stage_structure();
+        let kkt = KktBackend::new(
+            settings.kkt,
+            Pattern {
+                n: ws.n,
+                m: ws.m,
+                hess_rows: &ws.hess_rows,
+                hess_cols: &ws.hess_cols,
+                jac_rows: &ws.jac_rows,
+                jac_cols: &ws.jac_cols,
+            },
+            structure.as_ref(),
         )?;
         Ok(Self::with_backend(settings, ws, kkt))
     }
@@ -65,6 +72,16 @@ impl<K: KktSolver> Solver<K> {
             kkt,
             delta_w_last: 0.0,
         }
+    }
+
+    /// The KKT backend.
+    pub fn kkt(&self) -> &K {
+        &self.kkt
+    }
+
+    /// Mutable access to the KKT backend.
+    pub fn kkt_mut(&mut self) -> &mut K {
+        &mut self.kkt
     }
 
     /// Current settings.
@@ -709,7 +726,12 @@ impl<K: KktSolver> Solver<K> {
 
     /// Factorizes the KKT matrix, raising delta_w until the inertia is (n, m, 0).
     fn factorize(&mut self, mu: f64, force_reg: bool) -> Result<Factorization, usize> {
-        self.factorize_with(mu, force_reg, self.settings.delta_c_min)
+        let delta_c = if self.kkt.wants_dual_regularization() {
+            self.settings.delta_c_min
+        } else {
+            0.0
+        };
+        self.factorize_with(mu, force_reg, delta_c)
     }
 
     /// Inertia-corrected factorization with dual regularization at least `delta_c_base`.
@@ -760,7 +782,7 @@ impl<K: KktSolver> Solver<K> {
                 Err(KktError::Singular) => {
                     delta_c = delta_c.max(1e-8 * mu.max(1e-12).powf(0.25));
                 }
-                Err(KktError::NonFinite) => return Err(count),
+                Err(KktError::NonFinite | KktError::Unsupported) => return Err(count),
             }
             delta_w = if delta_w == 0.0 {
                 if self.delta_w_last == 0.0 {
@@ -809,7 +831,8 @@ impl<K: KktSolver> Solver<K> {
             }
             ws.tmp_m.iter_mut().for_each(|v| *v = 0.0);
         }
-        self.fill_diagonals(0.0, self.settings.delta_c_min.max(1e-8));
+        let delta_c = self.settings.delta_c_min.max(1e-8);
+        self.fill_diagonals(0.0, delta_c);
         let ws = &self.ws;
         let res = self.kkt.factorize(&KktValues {
             hess: &ws.hess,

@@ -13,9 +13,15 @@
 //! constraint Jacobian, `D_x` a positive primal diagonal (barrier terms + regularization)
 //! and `D_c` a non-positive dual diagonal.
 
+pub mod backend;
+pub mod riccati;
 pub mod sparse_ldlt;
+pub mod structure;
 
+pub use backend::{KktBackend, KktBackendKind};
+pub use riccati::RiccatiKkt;
 pub use sparse_ldlt::SparseLdlt;
+pub use structure::{RowRole, StageStructure};
 
 /// Numerical values of one KKT system; the sparsity structure was given at setup.
 #[derive(Debug, Clone, Copy)]
@@ -50,6 +56,10 @@ pub enum KktError {
     /// The matrix contains a NaN or infinite value.
     #[error("non-finite value in the KKT matrix")]
     NonFinite,
+    /// A structure-exploiting backend cannot factorize these values (e.g. a singular
+    /// dynamics Jacobian E_k); a general backend can.
+    #[error("values outside what the structured KKT backend handles")]
+    Unsupported,
 }
 
 /// A factorization backend for the condensed KKT system.
@@ -59,4 +69,10 @@ pub trait KktSolver {
     /// Solves with the last factorization: `rhs_x` (length n) and `rhs_y` (length m) are
     /// overwritten by `dx` and `dy`. Must not allocate.
     fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]);
+    /// Whether equality rows need the solver's base dual regularization `delta_c_min`
+    /// (a general LDL^T without pivoting does; a backend that pivots on the dynamics
+    /// Jacobian does not, and then factorizes the exact system).
+    fn wants_dual_regularization(&self) -> bool {
+        true
+    }
 }

@@ -37,6 +37,7 @@ use super::path_constraints::*;
 use super::scaling::{scale_control, scale_state, unscale_control, unscale_state};
 use super::scaling::{OBJECTIVE_SCALE, SATURATION_SCALE, X_NOMINAL};
 use super::spec::{InitialState, OcpSpec};
+use crate::ip::kkt::{RowRole, StageStructure};
 use crate::ip::{Nlp, NlpDims};
 use crate::model::{ix, VehicleParams, CONTROL_NAMES, NU, NX, STATE_NAMES};
 use std::collections::HashMap;
@@ -737,6 +738,32 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
 
     /// Hessian of `obj_factor f + lambda^T g`; f and all rows but the defects and the
     /// saturation rows are linear, so only those contribute.
+    /// Stages z_k = (x_k, u_k) for single-step schemes (no stage variables); the Riccati
+    /// backend checks at setup that the defects couple only x_k, u_k and x_{k+1}.
+    fn stage_structure(&self) -> Option<StageStructure> {
+        if S::STAGE_VARS != 0 || S::ROWS != NX {
+            return None;
+        }
+        let rows = self
+            .rows
+            .iter()
+            .map(|r| match r.kind {
+                RowKind::Initial { .. } => RowRole::Initial,
+                RowKind::Defect { row } => RowRole::Dynamics {
+                    stage: r.node,
+                    index: row,
+                },
+                _ => RowRole::Path,
+            })
+            .collect();
+        Some(StageStructure {
+            n_stages: N,
+            nx: NX,
+            nu: NU,
+            rows,
+        })
+    }
+
     fn eval_hess(&mut self, x: &[f64], _obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
         vals.fill(0.0);
         let cx = SchemeContext {

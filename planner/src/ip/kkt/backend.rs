@@ -1,0 +1,181 @@
+//! Backend selection: the Riccati backend where the NLP's stage structure allows it, with
+//! the general sparse LDL^T as fallback for other structures and for the rare values the
+//! Riccati sweep cannot take (a singular dynamics Jacobian).
+
+use super::riccati::{RiccatiKkt, StructureError};
+use super::sparse_ldlt::{SparseLdlt, SymbolicError};
+use super::structure::StageStructure;
+use super::{Inertia, KktError, KktSolver, KktValues};
+use serde::{Deserialize, Serialize};
+
+/// Which KKT backend the solver uses (`kkt` in `config/solver.toml`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum KktBackendKind {
+    /// Riccati when the NLP publishes a stage structure it fits, else sparse.
+    Auto,
+    /// Always the general sparse LDL^T (faer) (default).
+    #[default]
+    Sparse,
+    /// The Riccati backend; setup fails if the structure does not fit.
+    Riccati,
+}
+
+impl KktBackendKind {
+    /// Name used in configs and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            KktBackendKind::Auto => "auto",
+            KktBackendKind::Sparse => "sparse",
+            KktBackendKind::Riccati => "riccati",
+        }
+    }
+
+    /// Parses `auto`, `sparse` or `riccati`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(KktBackendKind::Auto),
+            "sparse" => Some(KktBackendKind::Sparse),
+            "riccati" => Some(KktBackendKind::Riccati),
+            _ => None,
+        }
+    }
+}
+
+/// The Riccati backend for the vehicle OCP's block sizes (9 states, 3 controls).
+pub type VehicleRiccati = RiccatiKkt<9, 3, 12>;
+
+/// Why no backend could be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BackendError {
+    /// The sparse symbolic analysis failed.
+    #[error(transparent)]
+    Sparse(#[from] SymbolicError),
+    /// `riccati` was requested but the structure does not fit.
+    #[error("riccati KKT backend: {0}")]
+    Structure(#[from] StructureError),
+    /// `riccati` was requested but the NLP publishes no stage structure.
+    #[error("riccati KKT backend: the problem has no stage structure")]
+    NoStructure,
+}
+
+/// A KKT backend chosen at setup.
+#[derive(Debug)]
+pub struct KktBackend {
+    riccati: Option<Box<VehicleRiccati>>,
+    sparse: Option<SparseLdlt>,
+    /// The last factorization was done by the sparse backend.
+    on_sparse: bool,
+    /// Factorizations the Riccati backend handed to the sparse one.
+    fallbacks: usize,
+}
+
+/// Sparsity of an NLP as the backends need it.
+#[derive(Debug, Clone, Copy)]
+pub struct Pattern<'a> {
+    /// Variables.
+    pub n: usize,
+    /// Constraint rows.
+    pub m: usize,
+    /// Hessian coordinates (lower triangle).
+    pub hess_rows: &'a [usize],
+    /// Hessian columns.
+    pub hess_cols: &'a [usize],
+    /// Jacobian rows.
+    pub jac_rows: &'a [usize],
+    /// Jacobian columns.
+    pub jac_cols: &'a [usize],
+}
+
+impl KktBackend {
+    /// Builds the backend `kind` for this pattern and (optional) stage structure.
+    pub fn new(
+        kind: KktBackendKind,
+        pat: Pattern<'_>,
+        structure: Option<&StageStructure>,
+    ) -> Result<Self, BackendError> {
+        let sparse = || {
+            SparseLdlt::new(
+                pat.n,
+                pat.m,
+                pat.hess_rows,
+                pat.hess_cols,
+                pat.jac_rows,
+                pat.jac_cols,
+            )
+        };
+        let riccati = |st: &StageStructure| {
+            VehicleRiccati::new(
+                st,
+                pat.n,
+                pat.hess_rows,
+                pat.hess_cols,
+                pat.jac_rows,
+                pat.jac_cols,
+            )
+            .map(Box::new)
+        };
+        let (riccati, sparse) = match kind {
+            KktBackendKind::Sparse => (None, Some(sparse()?)),
+            KktBackendKind::Riccati => {
+                let st = structure.ok_or(BackendError::NoStructure)?;
+                (Some(riccati(st)?), Some(sparse()?))
+            }
+            KktBackendKind::Auto => match structure.map(riccati) {
+                Some(Ok(r)) => (Some(r), Some(sparse()?)),
+                _ => (None, Some(sparse()?)),
+            },
+        };
+        Ok(Self {
+            riccati,
+            sparse,
+            on_sparse: false,
+            fallbacks: 0,
+        })
+    }
+
+    /// Name of the backend in use: `riccati` or `sparse`.
+    pub fn name(&self) -> &'static str {
+        if self.riccati.is_some() {
+            "riccati"
+        } else {
+            "sparse"
+        }
+    }
+
+    /// Factorizations the Riccati backend handed to the sparse one since setup.
+    pub fn fallbacks(&self) -> usize {
+        self.fallbacks
+    }
+}
+
+impl KktSolver for KktBackend {
+    fn factorize(&mut self, values: &KktValues<'_>) -> Result<Inertia, KktError> {
+        self.on_sparse = false;
+        if let Some(r) = self.riccati.as_mut() {
+            match r.factorize(values) {
+                Err(KktError::Unsupported) => self.fallbacks += 1,
+                res => return res,
+            }
+        }
+        self.on_sparse = true;
+        match self.sparse.as_mut() {
+            Some(s) => s.factorize(values),
+            None => Err(KktError::Unsupported),
+        }
+    }
+
+    /// The Riccati backend factorizes the exact system; with only the sparse one the base
+    /// regularization stays.
+    fn wants_dual_regularization(&self) -> bool {
+        self.riccati.is_none()
+    }
+
+    fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
+        match (self.on_sparse, self.riccati.as_mut(), self.sparse.as_mut()) {
+            (false, Some(r), _) => r.solve(rhs_x, rhs_y),
+            (_, _, Some(s)) => s.solve(rhs_x, rhs_y),
+            _ => {}
+        }
+    }
+}

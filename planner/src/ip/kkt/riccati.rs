@@ -1,0 +1,957 @@
+//! Structure-exploiting KKT backend: a Riccati-type block elimination over the stages of an
+//! optimal-control NLP with fixed-size (nalgebra) blocks. Allocation-free after setup; the
+//! inertia comes from the stage factorizations, so inertia correction stays cheap.
+//!
+//! With z_k = (x_k, u_k) (NZ = NX + NU entries), multipliers lambda_k of the dynamics rows
+//! `J_k z_k + E_k x_{k+1}` of interval k, and the initial rows on x_0, the factorization is:
+//!
+//! 1. **Path rows** (inequalities, dual diagonal D_c < 0) are eliminated into the primal
+//!    block: W = H + D_x + sum_r J_r^T J_r / |D_c,r|. Each adds one negative eigenvalue.
+//! 2. **Backward sweep** k = N-1 .. 0 over what remains (a block-banded matrix):
+//!    - the pair (x_{k+1}, lambda_k) is eliminated together. Its block
+//!      M = [[P, E^T], [E, -Delta]] is congruent to [[P^, I], [I, -Delta]] with
+//!      P^ = E^-T P E^-1, so it is nonsingular whenever E_k is (implicit Euler:
+//!      E = I - ds df/dx, explicit schemes: E = I), and its inertia is (NX - t, NX + t)
+//!      with t the negative eigenvalues of I + Delta^1/2 P^ Delta^1/2. The update this
+//!      sends to z_k is the Riccati recursion's A^T P A with A = -E^-1 J.
+//!    - u_k is eliminated (Q_uu, LDL^T without pivoting; the signs of its pivots are its
+//!      inertia). Its fill goes to x_k and, through the control-rate rows, to z_{k-1}.
+//! 3. The initial rows and x_0 form one dense block of size 2 NX, factorized by faer's
+//!    Bunch-Kaufman LBL^T (inertia from its 1x1 and 2x2 pivots): its dual diagonal ranges
+//!    from equality regularizations (1e-10) to inequality terms (1e6 and more).
+//!
+//! About NZ (7 NX^2 + 4 NX NZ + 2 NZ^2) NX flops a stage instead of a general sparse
+//! factorization of the whole KKT matrix. Works for every single-step scheme whose
+//! dynamics Jacobian E_k is invertible; anything else is [`KktError::Unsupported`].
+
+use super::structure::{RowRole, StageStructure};
+use super::{Inertia, KktError, KktSolver, KktValues};
+use faer::diag::Diag;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::lblt;
+use faer::{Conj, Mat, Par};
+use nalgebra::{SMatrix, SVector};
+
+/// No target in the block arena.
+const NONE: u32 = u32::MAX;
+
+/// What a constraint row is to this backend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Row {
+    /// Dynamics row (stage, index).
+    Dynamics(u32, u16),
+    /// Initial row number i (0..NX).
+    Initial(u16),
+    /// Path row number p.
+    Path(u32),
+}
+
+/// A path row: its Jacobian entries in `path_entries`.
+#[derive(Debug, Clone, Copy)]
+struct PathRow {
+    start: usize,
+    end: usize,
+}
+
+/// One Jacobian entry of a path row: value index, stage, position in the stage.
+#[derive(Debug, Clone, Copy)]
+struct PathEntry {
+    jac: usize,
+    stage: u32,
+    local: u16,
+}
+
+/// Factors of one stage, kept for the solves.
+#[derive(Debug, Clone)]
+struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
+    /// Dynamics Jacobian wrt z_k.
+    j: SMatrix<f64, NX, NZ>,
+    /// F = E^-1.
+    f: SMatrix<f64, NX, NX>,
+    /// Delta_k = 0: [[P^, I], [I, 0]]^-1 = [[0, I], [I, -P^]] and a11, a12 are unused.
+    zero_delta: bool,
+    /// Blocks of [[P^, I], [I, -Delta]]^-1 = [[a11, a12], [a12^T, a22]].
+    a11: SMatrix<f64, NX, NX>,
+    a12: SMatrix<f64, NX, NX>,
+    a22: SMatrix<f64, NX, NX>,
+    /// Coupling Y of z_k to x_{k+1} at elimination time, and C^ = Y F.
+    y: SMatrix<f64, NZ, NX>,
+    chat: SMatrix<f64, NZ, NX>,
+    /// Q_uu = L D L^T (unit lower L).
+    quu_l: SMatrix<f64, NU, NU>,
+    quu_d: SVector<f64, NU>,
+    /// Q_ux and the coupling R of u_k to z_{k-1}.
+    q_ux: SMatrix<f64, NU, NX>,
+    r: SMatrix<f64, NZ, NU>,
+}
+
+impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<NX, NU, NZ> {
+    fn default() -> Self {
+        Self {
+            j: SMatrix::zeros(),
+            f: SMatrix::zeros(),
+            zero_delta: true,
+            a11: SMatrix::zeros(),
+            a12: SMatrix::zeros(),
+            a22: SMatrix::zeros(),
+            y: SMatrix::zeros(),
+            chat: SMatrix::zeros(),
+            quu_l: SMatrix::zeros(),
+            quu_d: SVector::zeros(),
+            q_ux: SMatrix::zeros(),
+            r: SMatrix::zeros(),
+        }
+    }
+}
+
+/// Why a [`StageStructure`] does not fit this backend.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum StructureError {
+    /// Sizes disagree with the NLP or the compiled-in block sizes.
+    #[error("stage structure does not match: {0}")]
+    Size(String),
+    /// An entry couples variables this backend cannot eliminate in stage order.
+    #[error("entry ({row}, {col}) of the {what} breaks the stage structure")]
+    Coupling {
+        /// Which matrix.
+        what: &'static str,
+        /// Row.
+        row: usize,
+        /// Column.
+        col: usize,
+    },
+}
+
+/// The Riccati backend for NX states and NU controls per stage (NZ = NX + NU).
+pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
+    n: usize,
+    m: usize,
+    stages: usize,
+    /// Arena index of every Hessian value (and of its mirror for off-diagonal entries).
+    hess_map: Vec<[u32; 2]>,
+    /// Arena index of every Jacobian value (NONE for path rows).
+    jac_map: Vec<u32>,
+    rows: Vec<Row>,
+    path_rows: Vec<PathRow>,
+    path_entries: Vec<PathEntry>,
+    /// All assembled blocks, column-major: W_k (k = 0..=N; W_N uses the NX x NX corner),
+    /// X_k (rows z_{k+1}, columns z_k), E_k (index N: initial rows), J_k.
+    arena: Vec<f64>,
+    x_base: usize,
+    e_base: usize,
+    j_base: usize,
+    /// Delta = -D_c of the dynamics rows (index N: initial rows).
+    delta: Vec<SVector<f64, NX>>,
+    /// 1 / |D_c| of the path rows.
+    path_w: Vec<f64>,
+    /// Jacobian values of the path rows (parallel to `path_entries`), kept for the solves.
+    path_vals: Vec<f64>,
+    factors: Vec<StageFactor<NX, NU, NZ>>,
+    /// Dense initial block [[P_0, E^T], [E, -Delta]] and its LBL^T factors.
+    init: Mat<f64>,
+    init_diag: Diag<f64>,
+    init_sub: Diag<f64>,
+    init_perm: Vec<usize>,
+    init_perm_inv: Vec<usize>,
+    init_rhs: Mat<f64>,
+    mem: MemBuffer,
+    /// Right-hand sides per stage during a solve.
+    bz: Vec<SVector<f64, NZ>>,
+    bl: Vec<SVector<f64, NX>>,
+    factorized: bool,
+}
+
+impl<const NX: usize, const NU: usize, const NZ: usize> std::fmt::Debug for RiccatiKkt<NX, NU, NZ> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RiccatiKkt")
+            .field("n", &self.n)
+            .field("m", &self.m)
+            .field("stages", &self.stages)
+            .field("path_rows", &self.path_rows.len())
+            .finish()
+    }
+}
+
+impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
+    /// Builds the value maps from the NLP's sparsity structure and its stage structure.
+    /// Allocates; call once at setup.
+    pub fn new(
+        st: &StageStructure,
+        n: usize,
+        hess_rows: &[usize],
+        hess_cols: &[usize],
+        jac_rows: &[usize],
+        jac_cols: &[usize],
+    ) -> Result<Self, StructureError> {
+        if NZ != NX + NU || st.nx != NX || st.nu != NU {
+            return Err(StructureError::Size(format!(
+                "nx = {}, nu = {} against blocks of {NX} + {NU} = {NZ}",
+                st.nx, st.nu
+            )));
+        }
+        if st.n() != n {
+            return Err(StructureError::Size(format!(
+                "{} variables implied, NLP has {n}",
+                st.n()
+            )));
+        }
+        let big = st.n_stages;
+        let x_base = (big + 1) * NZ * NZ;
+        let e_base = x_base + big * NZ * NZ;
+        let j_base = e_base + (big + 1) * NX * NX;
+        let arena_len = j_base + big * NX * NZ;
+        if big == 0 || arena_len >= NONE as usize {
+            return Err(StructureError::Size(format!("{big} stages")));
+        }
+        let m = st.rows.len();
+        let w_at = |s: usize, r: usize, c: usize| (s * NZ * NZ + c * NZ + r) as u32;
+        let x_at = |s: usize, r: usize, c: usize| (x_base + s * NZ * NZ + c * NZ + r) as u32;
+        let e_at = |s: usize, r: usize, c: usize| (e_base + s * NX * NX + c * NX + r) as u32;
+        let j_at = |s: usize, r: usize, c: usize| (j_base + s * NX * NZ + c * NX + r) as u32;
+
+        // Rows.
+        let mut rows = Vec::with_capacity(m);
+        let mut n_init = 0usize;
+        let mut n_path = 0u32;
+        let mut dyn_count = vec![0usize; big * NX];
+        for role in &st.rows {
+            rows.push(match *role {
+                RowRole::Initial => {
+                    n_init += 1;
+                    Row::Initial((n_init - 1) as u16)
+                }
+                RowRole::Dynamics { stage, index } => {
+                    if stage >= big || index >= NX {
+                        return Err(StructureError::Size(format!(
+                            "dynamics row ({stage}, {index}) out of range"
+                        )));
+                    }
+                    dyn_count[stage * NX + index] += 1;
+                    Row::Dynamics(stage as u32, index as u16)
+                }
+                RowRole::Path => {
+                    n_path += 1;
+                    Row::Path(n_path - 1)
+                }
+            });
+        }
+        if n_init != NX {
+            return Err(StructureError::Size(format!(
+                "{n_init} initial rows, need one per state ({NX})"
+            )));
+        }
+        if dyn_count.iter().any(|&c| c != 1) {
+            return Err(StructureError::Size(
+                "every interval needs exactly one dynamics row per state".into(),
+            ));
+        }
+
+        // Jacobian.
+        let mut jac_map = Vec::with_capacity(jac_rows.len());
+        let mut per_path: Vec<Vec<PathEntry>> = vec![Vec::new(); n_path as usize];
+        for (q, (&r, &c)) in jac_rows.iter().zip(jac_cols).enumerate() {
+            if r >= m || c >= n {
+                return Err(StructureError::Size(format!(
+                    "Jacobian entry ({r}, {c}) out of range"
+                )));
+            }
+            let (s, l) = st.locate(c);
+            let bad = StructureError::Coupling {
+                what: "Jacobian",
+                row: r,
+                col: c,
+            };
+            jac_map.push(match rows[r] {
+                Row::Dynamics(k, i) => {
+                    let (k, i) = (k as usize, i as usize);
+                    if s == k {
+                        j_at(k, i, l)
+                    } else if s == k + 1 && l < NX {
+                        e_at(k, i, l)
+                    } else {
+                        return Err(bad);
+                    }
+                }
+                Row::Initial(i) => {
+                    if s != 0 || l >= NX {
+                        return Err(bad);
+                    }
+                    e_at(big, i as usize, l)
+                }
+                Row::Path(p) => {
+                    per_path[p as usize].push(PathEntry {
+                        jac: q,
+                        stage: s as u32,
+                        local: l as u16,
+                    });
+                    NONE
+                }
+            });
+        }
+        let mut path_rows = Vec::with_capacity(n_path as usize);
+        let mut path_entries = Vec::new();
+        for (p, ents) in per_path.iter().enumerate() {
+            if let (Some(lo), Some(hi)) = (
+                ents.iter().map(|e| e.stage).min(),
+                ents.iter().map(|e| e.stage).max(),
+            ) {
+                if hi > lo + 1 {
+                    return Err(StructureError::Coupling {
+                        what: "path rows",
+                        row: p,
+                        col: ents[0].jac,
+                    });
+                }
+            }
+            let start = path_entries.len();
+            path_entries.extend_from_slice(ents);
+            path_rows.push(PathRow {
+                start,
+                end: path_entries.len(),
+            });
+        }
+
+        // Hessian (lower triangle, row >= col).
+        let mut hess_map = Vec::with_capacity(hess_rows.len());
+        for (&r, &c) in hess_rows.iter().zip(hess_cols) {
+            if r >= n || c >= n {
+                return Err(StructureError::Size(format!(
+                    "Hessian entry ({r}, {c}) out of range"
+                )));
+            }
+            let (a, b) = (r.max(c), r.min(c));
+            let (sa, la) = st.locate(a);
+            let (sb, lb) = st.locate(b);
+            hess_map.push(if sa == sb {
+                if la == lb {
+                    [w_at(sa, la, lb), NONE]
+                } else {
+                    [w_at(sa, la, lb), w_at(sa, lb, la)]
+                }
+            } else if sa == sb + 1 {
+                [x_at(sb, la, lb), NONE]
+            } else {
+                return Err(StructureError::Coupling {
+                    what: "Hessian",
+                    row: r,
+                    col: c,
+                });
+            });
+        }
+
+        let dim = 2 * NX;
+        let params = Default::default();
+        let mem = MemBuffer::new(
+            lblt::factor::cholesky_in_place_scratch::<usize, f64>(dim, Par::Seq, params).or(
+                lblt::solve::solve_in_place_scratch::<usize, f64>(dim, 1, Par::Seq),
+            ),
+        );
+        Ok(Self {
+            n,
+            m,
+            stages: big,
+            hess_map,
+            jac_map,
+            rows,
+            path_w: vec![0.0; path_rows.len()],
+            path_vals: vec![0.0; path_entries.len()],
+            path_rows,
+            path_entries,
+            arena: vec![0.0; arena_len],
+            x_base,
+            e_base,
+            j_base,
+            delta: vec![SVector::zeros(); big + 1],
+            factors: vec![StageFactor::default(); big],
+            init: Mat::zeros(dim, dim),
+            init_diag: Diag::zeros(dim),
+            init_sub: Diag::zeros(dim),
+            init_perm: vec![0; dim],
+            init_perm_inv: vec![0; dim],
+            init_rhs: Mat::zeros(dim, 1),
+            mem,
+            bz: vec![SVector::zeros(); big + 1],
+            bl: vec![SVector::zeros(); big + 1],
+            factorized: false,
+        })
+    }
+
+    /// Writes the KKT values into the block arena, the path rows eliminated into W and X
+    /// (step 1). Returns the number of path rows (one negative eigenvalue each).
+    fn assemble(&mut self, v: &KktValues<'_>) -> Result<usize, KktError> {
+        let arena = &mut self.arena;
+        arena.fill(0.0);
+        for (&[a, b], &h) in self.hess_map.iter().zip(v.hess) {
+            arena[a as usize] += h;
+            if b != NONE {
+                arena[b as usize] += h;
+            }
+        }
+        for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
+            if a != NONE {
+                arena[a as usize] += jv;
+            }
+        }
+        for (i, &d) in v.primal_diag.iter().enumerate() {
+            let (s, l) = (i / NZ, i % NZ);
+            arena[s * NZ * NZ + l * NZ + l] += d;
+        }
+        let big = self.stages;
+        for (r, &d) in v.dual_diag.iter().enumerate() {
+            match self.rows[r] {
+                Row::Dynamics(k, i) => self.delta[k as usize][i as usize] = -d,
+                Row::Initial(i) => self.delta[big][i as usize] = -d,
+                Row::Path(p) => {
+                    if d.is_nan() || d >= 0.0 {
+                        return Err(KktError::Unsupported);
+                    }
+                    self.path_w[p as usize] = -1.0 / d;
+                }
+            }
+        }
+        // W += J_r^T J_r / |D_c| over the path rows (X for pairs across two stages).
+        let x_base = self.x_base;
+        for (pr, &wgt) in self.path_rows.iter().zip(&self.path_w) {
+            let ents = &self.path_entries[pr.start..pr.end];
+            for (q, a) in ents.iter().enumerate() {
+                let ja = v.jac[a.jac];
+                self.path_vals[pr.start + q] = ja;
+                let ja = ja * wgt;
+                let (sa, la) = (a.stage as usize, a.local as usize);
+                for b in ents {
+                    let (sb, lb) = (b.stage as usize, b.local as usize);
+                    let val = ja * v.jac[b.jac];
+                    if sa == sb {
+                        arena[sa * NZ * NZ + lb * NZ + la] += val;
+                    } else if sb == sa + 1 {
+                        arena[x_base + sa * NZ * NZ + la * NZ + lb] += val;
+                    }
+                }
+            }
+        }
+        Ok(self.path_rows.len())
+    }
+
+    #[inline]
+    fn w_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
+        SMatrix::from_column_slice(&self.arena[k * NZ * NZ..(k + 1) * NZ * NZ])
+    }
+
+    #[inline]
+    fn x_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
+        let o = self.x_base + k * NZ * NZ;
+        SMatrix::from_column_slice(&self.arena[o..o + NZ * NZ])
+    }
+
+    #[inline]
+    fn e_block(&self, k: usize) -> SMatrix<f64, NX, NX> {
+        let o = self.e_base + k * NX * NX;
+        SMatrix::from_column_slice(&self.arena[o..o + NX * NX])
+    }
+
+    #[inline]
+    fn j_block(&self, k: usize) -> SMatrix<f64, NX, NZ> {
+        let o = self.j_base + k * NX * NZ;
+        SMatrix::from_column_slice(&self.arena[o..o + NX * NZ])
+    }
+
+    /// Eliminates the pair (x_{k+1}, lambda_k) (factor `fac` holds J, Y on entry) and
+    /// returns z_k's block after the update, Q = W~ - C M^-1 C^T.
+    fn eliminate_pair(
+        fac: &mut StageFactor<NX, NU, NZ>,
+        p: &SMatrix<f64, NX, NX>,
+        e: &SMatrix<f64, NX, NX>,
+        delta: &SVector<f64, NX>,
+        mut q: SMatrix<f64, NZ, NZ>,
+        inertia: &mut Inertia,
+    ) -> Result<SMatrix<f64, NZ, NZ>, KktError> {
+        let f = invert(e).ok_or(KktError::Unsupported)?;
+        let mut phat = f.tr_mul(&(p * f));
+        symmetrize(&mut phat);
+        fac.f = f;
+        fac.chat = fac.y * f;
+        let j = fac.j;
+        fac.zero_delta = delta.iter().all(|&d| d == 0.0);
+        let minus_identity =
+            (0..NX).all(|c| (0..NX).all(|r| j[(r, c)] == if r == c { -1.0 } else { 0.0 }));
+        if fac.zero_delta {
+            // M^-1 = diag(F, I) [[0, I], [I, -P^]] diag(F^T, I): inertia (NX, NX).
+            inertia.positive += NX;
+            inertia.negative += NX;
+            fac.a22 = -phat;
+            if minus_identity {
+                // J = [-I, G]: Q = W~ - C^J - (C^J)^T + J^T P^ J written blockwise.
+                let g: SMatrix<f64, NX, NU> = j.fixed_view::<NX, NU>(0, NX).into_owned();
+                let cg = fac.chat * g;
+                let pg = phat * g;
+                let gpg = g.tr_mul(&pg);
+                for c in 0..NX {
+                    for r in 0..NZ {
+                        q[(r, c)] += fac.chat[(r, c)];
+                        q[(c, r)] += fac.chat[(r, c)];
+                    }
+                }
+                for c in 0..NU {
+                    for r in 0..NZ {
+                        q[(r, NX + c)] -= cg[(r, c)];
+                        q[(NX + c, r)] -= cg[(r, c)];
+                    }
+                }
+                for c in 0..NX {
+                    for r in 0..NX {
+                        q[(r, c)] += phat[(r, c)];
+                    }
+                }
+                for c in 0..NU {
+                    for r in 0..NX {
+                        q[(r, NX + c)] -= pg[(r, c)];
+                        q[(NX + c, r)] -= pg[(r, c)];
+                    }
+                    for r in 0..NU {
+                        q[(NX + r, NX + c)] += gpg[(r, c)];
+                    }
+                }
+            } else {
+                let cj = fac.chat * j;
+                q -= cj + cj.transpose();
+                q += j.tr_mul(&(phat * j));
+            }
+            symmetrize(&mut q);
+            return Ok(q);
+        }
+        // Delta != 0 (restoration, or a raised dual regularization): general blocks.
+        let sqrt_d = delta.map(|d| d.max(0.0).sqrt());
+        let mut ts = phat;
+        for c in 0..NX {
+            for r in 0..NX {
+                ts[(r, c)] *= sqrt_d[r] * sqrt_d[c];
+            }
+            ts[(c, c)] += 1.0;
+        }
+        let neg = ldlt_factor(&ts)?.2;
+        inertia.positive += NX - neg;
+        inertia.negative += NX + neg;
+        // K = (I + P^ Delta)^-1; [[Delta K, K^T], [K, -K P^]].
+        let mut t = phat;
+        for c in 0..NX {
+            for r in 0..NX {
+                t[(r, c)] *= delta[c];
+            }
+            t[(c, c)] += 1.0;
+        }
+        let k = invert(&t).ok_or(KktError::Singular)?;
+        let mut a11 = k;
+        for r in 0..NX {
+            for c in 0..NX {
+                a11[(r, c)] *= delta[r];
+            }
+        }
+        symmetrize(&mut a11);
+        let mut a22 = -(k * phat);
+        symmetrize(&mut a22);
+        fac.a11 = a11;
+        fac.a12 = k.transpose();
+        fac.a22 = a22;
+        // S = C^ a11 C^T + C^ a12 J + J^T a12^T C^T + J^T a22 J.
+        let cross = fac.chat * fac.a12 * j;
+        q -= fac.chat * a11 * fac.chat.transpose() + cross + cross.transpose();
+        q -= j.tr_mul(&(a22 * j));
+        symmetrize(&mut q);
+        Ok(q)
+    }
+
+    /// Applies the pair's [[P^, I], [I, -Delta]]^-1 to (F^T r1, r2): returns (a, b) with
+    /// x_{k+1} = F a and lambda_k = b.
+    #[inline]
+    fn apply_pair(
+        fac: &StageFactor<NX, NU, NZ>,
+        r1: &SVector<f64, NX>,
+        r2: &SVector<f64, NX>,
+    ) -> (SVector<f64, NX>, SVector<f64, NX>) {
+        let q1 = fac.f.tr_mul(r1);
+        if fac.zero_delta {
+            (*r2, q1 + fac.a22 * r2)
+        } else {
+            let a = fac.a11 * q1 + fac.a12 * r2;
+            let b = fac.a12.tr_mul(&q1) + fac.a22 * r2;
+            (a, b)
+        }
+    }
+
+    fn factorize_blocks(&mut self, negative_path: usize) -> Result<Inertia, KktError> {
+        let big = self.stages;
+        let mut inertia = Inertia {
+            positive: 0,
+            negative: negative_path,
+            zero: 0,
+        };
+        let mut p: SMatrix<f64, NX, NX> = self.w_block(big).fixed_view::<NX, NX>(0, 0).into_owned();
+        let mut y: SMatrix<f64, NZ, NX> =
+            self.x_block(big - 1).fixed_view::<NX, NZ>(0, 0).transpose();
+        let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
+        for k in (0..big).rev() {
+            let w = self.w_block(k) - pending;
+            let e = self.e_block(k);
+            let j = self.j_block(k);
+            let prev = if k > 0 {
+                Some(self.x_block(k - 1))
+            } else {
+                None
+            };
+            let fac = &mut self.factors[k];
+            fac.y = y;
+            fac.j = j;
+            let q = Self::eliminate_pair(fac, &p, &e, &self.delta[k], w, &mut inertia)?;
+            // u_k.
+            let quu: SMatrix<f64, NU, NU> = q.fixed_view::<NU, NU>(NX, NX).into_owned();
+            let (l, d, neg) = ldlt_factor(&quu)?;
+            inertia.positive += NU - neg;
+            inertia.negative += neg;
+            fac.quu_l = l;
+            fac.quu_d = d;
+            fac.q_ux = q.fixed_view::<NU, NX>(NX, 0).into_owned();
+            // g = Q_uu^-1 Q_ux.
+            let mut g = fac.q_ux;
+            ldlt_solve_cols(&l, &d, &mut g);
+            p = q.fixed_view::<NX, NX>(0, 0) - fac.q_ux.tr_mul(&g);
+            symmetrize(&mut p);
+            if let Some(xc) = prev {
+                // Y = X_{k-1}[x rows]^T - R g and W_{k-1} -= R Q_uu^-1 R^T.
+                fac.r = xc.fixed_view::<NU, NZ>(NX, 0).transpose();
+                y = xc.fixed_view::<NX, NZ>(0, 0).transpose() - fac.r * g;
+                let mut rt = fac.r.transpose();
+                ldlt_solve_cols(&l, &d, &mut rt);
+                pending = fac.r * rt;
+                symmetrize(&mut pending);
+            } else {
+                fac.r = SMatrix::zeros();
+            }
+        }
+        self.factorize_initial(&p, &mut inertia)?;
+        Ok(inertia)
+    }
+
+    /// The initial block [[P_0, E^T], [E, -Delta]] by Bunch-Kaufman (step 3).
+    fn factorize_initial(
+        &mut self,
+        p: &SMatrix<f64, NX, NX>,
+        inertia: &mut Inertia,
+    ) -> Result<(), KktError> {
+        let big = self.stages;
+        let e = self.e_block(big);
+        let dl = self.delta[big];
+        let a = &mut self.init;
+        for c in 0..NX {
+            for r in 0..NX {
+                a[(r, c)] = p[(r, c)];
+                a[(NX + r, c)] = e[(r, c)];
+                a[(r, NX + c)] = e[(c, r)];
+                a[(NX + r, NX + c)] = 0.0;
+            }
+            a[(NX + c, NX + c)] = -dl[c];
+        }
+        // faer leaves the subdiagonal entry of a pivot with a zero column untouched.
+        self.init_sub.column_vector_mut().fill(0.0);
+        lblt::factor::cholesky_in_place(
+            self.init.as_mut(),
+            self.init_sub.as_mut(),
+            &mut self.init_perm,
+            &mut self.init_perm_inv,
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+            Default::default(),
+        );
+        let dim = 2 * NX;
+        let mut i = 0;
+        while i < dim {
+            let d = self.init[(i, i)];
+            self.init_diag.column_vector_mut()[i] = d;
+            let s = if i + 1 < dim {
+                self.init_sub.column_vector()[i]
+            } else {
+                0.0
+            };
+            if s != 0.0 {
+                let d2 = self.init[(i + 1, i + 1)];
+                self.init_diag.column_vector_mut()[i + 1] = d2;
+                let det = d * d2 - s * s;
+                if !det.is_finite() || det == 0.0 {
+                    return Err(KktError::Singular);
+                } else if det < 0.0 {
+                    inertia.positive += 1;
+                    inertia.negative += 1;
+                } else if d > 0.0 {
+                    inertia.positive += 2;
+                } else {
+                    inertia.negative += 2;
+                }
+                i += 2;
+            } else {
+                if !d.is_finite() || d == 0.0 {
+                    return Err(KktError::Singular);
+                }
+                if d > 0.0 {
+                    inertia.positive += 1;
+                } else {
+                    inertia.negative += 1;
+                }
+                i += 1;
+            }
+        }
+        // faer's solve wants the unit lower factor.
+        for c in 0..dim {
+            self.init[(c, c)] = 1.0;
+            for r in 0..c {
+                self.init[(r, c)] = 0.0;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt<NX, NU, NZ> {
+    fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+        self.factorized = false;
+        if v.hess
+            .iter()
+            .chain(v.jac)
+            .chain(v.primal_diag)
+            .chain(v.dual_diag)
+            .any(|x| !x.is_finite())
+        {
+            return Err(KktError::NonFinite);
+        }
+        let negative_path = self.assemble(v)?;
+        let inertia = self.factorize_blocks(negative_path)?;
+        self.factorized = true;
+        Ok(inertia)
+    }
+
+    fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
+        if !self.factorized {
+            return;
+        }
+        let big = self.stages;
+        // Gather, the path rows eliminated: r_x += J_r^T r_c,r / |D_c|.
+        for (i, &v) in rhs_x.iter().enumerate() {
+            self.bz[i / NZ][i % NZ] = v;
+        }
+        for (r, &v) in rhs_y.iter().enumerate() {
+            match self.rows[r] {
+                Row::Dynamics(k, i) => self.bl[k as usize][i as usize] = v,
+                Row::Initial(i) => self.bl[big][i as usize] = v,
+                Row::Path(p) => {
+                    let pr = self.path_rows[p as usize];
+                    let t = v * self.path_w[p as usize];
+                    for (e, &jv) in self.path_entries[pr.start..pr.end]
+                        .iter()
+                        .zip(&self.path_vals[pr.start..pr.end])
+                    {
+                        self.bz[e.stage as usize][e.local as usize] += t * jv;
+                    }
+                }
+            }
+        }
+        // Forward substitution in elimination order.
+        for k in (0..big).rev() {
+            let fac = &self.factors[k];
+            let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0).into_owned();
+            let (a, b) = Self::apply_pair(fac, &r1, &self.bl[k]);
+            let upd = fac.chat * a + fac.j.tr_mul(&b);
+            self.bz[k] -= upd;
+            let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX).into_owned();
+            ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
+            let ux = fac.q_ux.tr_mul(&t);
+            let mut head = self.bz[k].fixed_rows_mut::<NX>(0);
+            head -= ux;
+            if k > 0 {
+                let ur = fac.r * t;
+                self.bz[k - 1] -= ur;
+            }
+        }
+        // Initial block.
+        for i in 0..NX {
+            self.init_rhs[(i, 0)] = self.bz[0][i];
+            self.init_rhs[(NX + i, 0)] = self.bl[big][i];
+        }
+        let perm = faer::perm::PermRef::new_checked(&self.init_perm, &self.init_perm_inv, 2 * NX);
+        lblt::solve::solve_in_place_with_conj(
+            self.init.as_ref(),
+            self.init_diag.as_ref(),
+            self.init_sub.as_ref(),
+            Conj::No,
+            perm,
+            self.init_rhs.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+        for i in 0..NX {
+            self.bz[0][i] = self.init_rhs[(i, 0)];
+            self.bl[big][i] = self.init_rhs[(NX + i, 0)];
+        }
+        // Backward substitution.
+        for k in 0..big {
+            let fac = &self.factors[k];
+            let x: SVector<f64, NX> = self.bz[k].fixed_rows::<NX>(0).into_owned();
+            let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX) - fac.q_ux * x;
+            if k > 0 {
+                t -= fac.r.tr_mul(&self.bz[k - 1]);
+            }
+            ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
+            self.bz[k].fixed_rows_mut::<NU>(NX).copy_from(&t);
+            let z = self.bz[k];
+            let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - fac.y.tr_mul(&z);
+            let r2 = self.bl[k] - fac.j * z;
+            let (a, b) = Self::apply_pair(fac, &r1, &r2);
+            let xn = fac.f * a;
+            self.bz[k + 1].fixed_rows_mut::<NX>(0).copy_from(&xn);
+            self.bl[k] = b;
+        }
+        // Scatter; path-row multipliers from dy_r = (r_c,r - J_r dx) / D_c.
+        for (i, v) in rhs_x.iter_mut().enumerate() {
+            *v = self.bz[i / NZ][i % NZ];
+        }
+        for (r, out) in rhs_y.iter_mut().enumerate() {
+            *out = match self.rows[r] {
+                Row::Dynamics(k, i) => self.bl[k as usize][i as usize],
+                Row::Initial(i) => self.bl[big][i as usize],
+                Row::Path(p) => {
+                    let pr = self.path_rows[p as usize];
+                    let mut jdx = 0.0;
+                    for (e, &jv) in self.path_entries[pr.start..pr.end]
+                        .iter()
+                        .zip(&self.path_vals[pr.start..pr.end])
+                    {
+                        jdx += jv * self.bz[e.stage as usize][e.local as usize];
+                    }
+                    -(*out - jdx) * self.path_w[p as usize]
+                }
+            };
+        }
+    }
+
+    fn wants_dual_regularization(&self) -> bool {
+        false
+    }
+}
+
+/// Inverse of a small matrix by Gauss-Jordan elimination with partial pivoting; `None`
+/// when a pivot is below 1e-13 of the largest entry (numerically singular).
+fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+    let scale = a.amax();
+    if scale.is_nan() || scale <= 0.0 || !scale.is_finite() {
+        return None;
+    }
+    let mut m = *a;
+    let mut inv = SMatrix::<f64, D, D>::identity();
+    for c in 0..D {
+        let mut p = c;
+        let mut best = m[(c, c)].abs();
+        for r in c + 1..D {
+            if m[(r, c)].abs() > best {
+                best = m[(r, c)].abs();
+                p = r;
+            }
+        }
+        if best.is_nan() || best <= 1e-13 * scale {
+            return None;
+        }
+        if p != c {
+            m.swap_rows(p, c);
+            inv.swap_rows(p, c);
+        }
+        let piv = 1.0 / m[(c, c)];
+        for j in 0..D {
+            m[(c, j)] *= piv;
+            inv[(c, j)] *= piv;
+        }
+        for r in 0..D {
+            let f = m[(r, c)];
+            if r != c && f != 0.0 {
+                for j in 0..D {
+                    m[(r, j)] -= f * m[(c, j)];
+                    inv[(r, j)] -= f * inv[(c, j)];
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
+/// Copies the lower triangle's average into both triangles.
+#[inline]
+fn symmetrize<const D: usize>(a: &mut SMatrix<f64, D, D>) {
+    for c in 0..D {
+        for r in c + 1..D {
+            let v = 0.5 * (a[(r, c)] + a[(c, r)]);
+            a[(r, c)] = v;
+            a[(c, r)] = v;
+        }
+    }
+}
+
+/// LDL^T of a symmetric matrix without pivoting: returns (unit lower L, D, number of
+/// negative pivots). A zero or non-finite pivot is a singular matrix.
+fn ldlt_factor<const D: usize>(
+    a: &SMatrix<f64, D, D>,
+) -> Result<(SMatrix<f64, D, D>, SVector<f64, D>, usize), KktError> {
+    let mut l = SMatrix::<f64, D, D>::identity();
+    let mut d = SVector::<f64, D>::zeros();
+    let mut neg = 0;
+    for j in 0..D {
+        let mut dj = a[(j, j)];
+        for k in 0..j {
+            dj -= l[(j, k)] * l[(j, k)] * d[k];
+        }
+        if !dj.is_finite() || dj == 0.0 {
+            return Err(KktError::Singular);
+        }
+        if dj < 0.0 {
+            neg += 1;
+        }
+        d[j] = dj;
+        for i in j + 1..D {
+            let mut v = a[(i, j)];
+            for k in 0..j {
+                v -= l[(i, k)] * l[(j, k)] * d[k];
+            }
+            l[(i, j)] = v / dj;
+        }
+    }
+    Ok((l, d, neg))
+}
+
+/// Solves (L D L^T) x = b in place for a vector.
+#[inline]
+fn ldlt_solve_vec<const D: usize>(
+    l: &SMatrix<f64, D, D>,
+    d: &SVector<f64, D>,
+    b: &mut SVector<f64, D>,
+) {
+    for i in 0..D {
+        for k in 0..i {
+            b[i] -= l[(i, k)] * b[k];
+        }
+    }
+    for i in 0..D {
+        b[i] /= d[i];
+    }
+    for i in (0..D).rev() {
+        for k in i + 1..D {
+            b[i] -= l[(k, i)] * b[k];
+        }
+    }
+}
+
+/// Solves (L D L^T) X = B in place, column by column.
+fn ldlt_solve_cols<const D: usize, const C: usize>(
+    l: &SMatrix<f64, D, D>,
+    d: &SVector<f64, D>,
+    b: &mut SMatrix<f64, D, C>,
+) {
+    for c in 0..C {
+        let mut col: SVector<f64, D> = b.column(c).into_owned();
+        ldlt_solve_vec(l, d, &mut col);
+        b.set_column(c, &col);
+    }
+}

@@ -1,0 +1,461 @@
+//! The Riccati KKT backend against the general sparse LDL^T (FATROP's test habit): the same
+//! inertia and the same Newton steps on the oval OCP's KKT systems, and the same solve.
+
+mod common;
+
+use std::path::Path;
+
+use common::Rng;
+use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::guess::GuessKind;
+use planner::ip::kkt::backend::VehicleRiccati;
+use planner::ip::kkt::{KktBackendKind, KktSolver, KktValues, SparseLdlt};
+use planner::ip::{Nlp, Status};
+use planner::ocp::transcription::ImplicitEulerNlp;
+use planner::ocp::{InitialState, OcpSpec};
+use planner::plan::Planner;
+
+fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"))
+}
+
+fn oval_spec() -> OcpSpec {
+    let vehicle = load_vehicle(&root().join("vehicles/lc500.toml")).unwrap();
+    load_scenario(&root().join("scenarios/oval.toml"), None, vehicle).unwrap()
+}
+
+/// A KKT system of the oval NLP at its starting point with random multipliers and
+/// diagonals: Hessian, Jacobian, D_x > 0, D_c = -delta_c on equalities and < 0 otherwise.
+struct System {
+    n: usize,
+    m: usize,
+    hr: Vec<usize>,
+    hc: Vec<usize>,
+    jr: Vec<usize>,
+    jc: Vec<usize>,
+    hess: Vec<f64>,
+    jac: Vec<f64>,
+    dx: Vec<f64>,
+    dc: Vec<f64>,
+}
+
+fn system<const N: usize>(
+    nlp: &mut ImplicitEulerNlp<N>,
+    rng: &mut Rng,
+    delta_c: f64,
+    sparse_diag: bool,
+) -> System {
+    let d = nlp.dims();
+    let (n, m) = (d.n, d.m);
+    let mut hr = vec![0; d.nnz_hess];
+    let mut hc = vec![0; d.nnz_hess];
+    let mut jr = vec![0; d.nnz_jac];
+    let mut jc = vec![0; d.nnz_jac];
+    nlp.hess_structure(&mut hr, &mut hc);
+    nlp.jac_structure(&mut jr, &mut jc);
+    let mut x = vec![0.0; n];
+    nlp.initial_point(&mut x);
+    for v in x.iter_mut() {
+        *v *= rng.range(0.9, 1.1);
+    }
+    let lambda: Vec<f64> = (0..m).map(|_| rng.range(-1.0, 1.0)).collect();
+    let mut hess = vec![0.0; d.nnz_hess];
+    let mut jac = vec![0.0; d.nnz_jac];
+    nlp.eval_hess(&x, 1.0, &lambda, &mut hess);
+    nlp.eval_jac_g(&x, &mut jac);
+    let (mut xl, mut xu, mut gl, mut gu) = (vec![0.0; n], vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+    nlp.bounds(&mut xl, &mut xu, &mut gl, &mut gu);
+    // Barrier terms only on some variables (the others have no bounds) when `sparse_diag`.
+    let dx = (0..n)
+        .map(|_| {
+            if sparse_diag && rng.next() < 0.5 {
+                0.0
+            } else {
+                10f64.powf(rng.range(-1.0, 2.0))
+            }
+        })
+        .collect();
+    let dc = (0..m)
+        .map(|i| {
+            if gl[i] == gu[i] {
+                -delta_c
+            } else {
+                -(10f64.powf(rng.range(-2.0, 2.0)))
+            }
+        })
+        .collect();
+    System {
+        n,
+        m,
+        hr,
+        hc,
+        jr,
+        jc,
+        hess,
+        jac,
+        dx,
+        dc,
+    }
+}
+
+/// K [x; y] in full (both triangles).
+fn matvec(s: &System, x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let mut ox = vec![0.0; s.n];
+    let mut oy = vec![0.0; s.m];
+    for ((&r, &c), &v) in s.hr.iter().zip(&s.hc).zip(&s.hess) {
+        ox[r] += v * x[c];
+        if r != c {
+            ox[c] += v * x[r];
+        }
+    }
+    for ((&r, &c), &v) in s.jr.iter().zip(&s.jc).zip(&s.jac) {
+        oy[r] += v * x[c];
+        ox[c] += v * y[r];
+    }
+    for i in 0..s.n {
+        ox[i] += s.dx[i] * x[i];
+    }
+    for i in 0..s.m {
+        oy[i] += s.dc[i] * y[i];
+    }
+    (ox, oy)
+}
+
+fn inf_norm(a: &[f64]) -> f64 {
+    a.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+fn check_same_steps(initial: InitialState, delta_c: f64, seed: u64) {
+    let mut spec = oval_spec();
+    spec.initial = initial;
+    let mut nlp = ImplicitEulerNlp::<100>::new(spec).unwrap();
+    let structure = nlp
+        .stage_structure()
+        .expect("implicit Euler has a stage structure");
+    let mut rng = Rng(seed);
+    for trial in 0..3 {
+        let s = system(&mut nlp, &mut rng, delta_c, false);
+        let values = KktValues {
+            hess: &s.hess,
+            jac: &s.jac,
+            primal_diag: &s.dx,
+            dual_diag: &s.dc,
+        };
+        let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
+        // Its LDL^T without pivoting needs a few refinement steps to be a reference.
+        sparse.set_refine_steps(5);
+        let mut ric = VehicleRiccati::new(&structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
+        let in_s = sparse.factorize(&values).unwrap();
+        let in_r = ric.factorize(&values).unwrap();
+        assert_eq!(in_s, in_r, "inertia, trial {trial}");
+        assert_eq!(in_r.positive + in_r.negative, s.n + s.m);
+
+        let bx: Vec<f64> = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
+        let by: Vec<f64> = (0..s.m).map(|_| rng.range(-1.0, 1.0)).collect();
+        let (mut xs, mut ys) = (bx.clone(), by.clone());
+        sparse.solve(&mut xs, &mut ys);
+        let (mut xr, mut yr) = (bx.clone(), by.clone());
+        ric.solve(&mut xr, &mut yr);
+
+        // Both solve the system...
+        let b_norm = inf_norm(&bx).max(inf_norm(&by));
+        for (name, x, y) in [("sparse", &xs, &ys), ("riccati", &xr, &yr)] {
+            let (kx, ky) = matvec(&s, x, y);
+            let res = kx
+                .iter()
+                .zip(&bx)
+                .chain(ky.iter().zip(&by))
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            let scale = inf_norm(x).max(inf_norm(y)).max(b_norm);
+            eprintln!("{name}: residual {res:e} (scale {scale:e})");
+        }
+        // ... and agree.
+        let sol_norm = inf_norm(&xs).max(inf_norm(&ys));
+        let diff = xs
+            .iter()
+            .zip(&xr)
+            .chain(ys.iter().zip(&yr))
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        eprintln!("trial {trial}: |dx| {sol_norm:e}, max diff {diff:e}");
+        assert!(
+            diff <= 1e-9 * sol_norm,
+            "steps differ: {diff:e} against |step| {sol_norm:e} (trial {trial})"
+        );
+    }
+}
+
+#[test]
+fn same_steps_as_sparse_free_start() {
+    check_same_steps(InitialState::Free, 1e-10, 7);
+}
+
+#[test]
+fn same_steps_as_sparse_fixed_start() {
+    let mut x0 = [0.0; 9];
+    x0[1] = 20.0;
+    x0[3] = 20.0;
+    check_same_steps(InitialState::Fixed(x0), 1e-10, 11);
+}
+
+fn oval_planner(kkt: KktBackendKind) -> Planner<100> {
+    let mut settings = load_solver(&root().join("solver.toml")).unwrap();
+    settings.kkt = kkt;
+    Planner::<100>::new(oval_spec(), settings).unwrap()
+}
+
+/// Both backends solve the oval to the same optimum. (Their iterates are not identical:
+/// the sparse LDL^T without pivoting misjudges the inertia on some iterations, see
+/// `inertia_matches_dense_eigenvalues`, and regularizes where the exact Riccati sweep
+/// does not.)
+#[test]
+fn oval_same_optimum_with_both_backends() {
+    let mut sp = oval_planner(KktBackendKind::Sparse);
+    let mut rp = oval_planner(KktBackendKind::Riccati);
+    let is = sp.solve(GuessKind::Equilibrium);
+    let ir = rp.solve(GuessKind::Equilibrium);
+    assert_eq!(is.status, Status::Optimal);
+    assert_eq!(ir.status, Status::Optimal, "{ir:?}");
+    assert_eq!(rp.solver().kkt().name(), "riccati");
+    assert_eq!(rp.solver().kkt().fallbacks(), 0);
+    let t_s = sp.states()[100][8];
+    let t_r = rp.states()[100][8];
+    assert!((t_s - t_r).abs() < 1e-6 * t_s, "{t_s} vs {t_r}");
+}
+
+/// Oval data cut to N intervals of the same length.
+fn small_spec(n: usize) -> OcpSpec {
+    let mut spec = oval_spec();
+    let ds = spec.ds();
+    spec.n_intervals = n;
+    spec.length = ds * n as f64;
+    spec.kappa.truncate(n + 1);
+    spec.e_min.truncate(n + 1);
+    spec.e_max.truncate(n + 1);
+    spec
+}
+
+/// Inertia of the dense KKT matrix from its eigenvalues.
+fn dense_inertia(s: &System) -> (usize, usize, usize) {
+    let dim = s.n + s.m;
+    let mut k = nalgebra::DMatrix::<f64>::zeros(dim, dim);
+    for ((&r, &c), &v) in s.hr.iter().zip(&s.hc).zip(&s.hess) {
+        k[(r, c)] += v;
+        if r != c {
+            k[(c, r)] += v;
+        }
+    }
+    for ((&r, &c), &v) in s.jr.iter().zip(&s.jc).zip(&s.jac) {
+        k[(s.n + r, c)] += v;
+        k[(c, s.n + r)] += v;
+    }
+    for i in 0..s.n {
+        k[(i, i)] += s.dx[i];
+    }
+    for i in 0..s.m {
+        k[(s.n + i, s.n + i)] += s.dc[i];
+    }
+    let eig = k.symmetric_eigenvalues();
+    let tol = 1e-12 * eig.amax();
+    let pos = eig.iter().filter(|&&e| e > tol).count();
+    let neg = eig.iter().filter(|&&e| e < -tol).count();
+    (pos, neg, dim - pos - neg)
+}
+
+/// The inertia the Riccati sweep reports is the true one (dense eigenvalues), also for
+/// indefinite Hessians with barrier terms on only some variables.
+#[test]
+fn inertia_matches_dense_eigenvalues() {
+    const N: usize = 6;
+    for (seed, fixed) in [(3u64, false), (5, true), (9, false), (17, true)] {
+        let mut spec = small_spec(N);
+        if fixed {
+            let mut x0 = [0.0; 9];
+            x0[1] = 20.0;
+            x0[3] = 20.0;
+            spec.initial = InitialState::Fixed(x0);
+        }
+        let mut nlp = ImplicitEulerNlp::<N>::new(spec).unwrap();
+        let structure = nlp.stage_structure().unwrap();
+        let mut rng = Rng(seed);
+        for trial in 0..4 {
+            let s = system(&mut nlp, &mut rng, 1e-8, true);
+            let values = KktValues {
+                hess: &s.hess,
+                jac: &s.jac,
+                primal_diag: &s.dx,
+                dual_diag: &s.dc,
+            };
+            let mut ric = planner::ip::kkt::RiccatiKkt::<9, 3, 12>::new(
+                &structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc,
+            )
+            .unwrap();
+            let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
+            let (pos, neg, zero) = dense_inertia(&s);
+            let r = ric.factorize(&values);
+            let sp = sparse.factorize(&values);
+            eprintln!("seed {seed} trial {trial}: dense ({pos}, {neg}, {zero}) riccati {r:?} sparse {sp:?}");
+            let r = r.unwrap();
+            assert_eq!((r.positive, r.negative, r.zero), (pos, neg, zero));
+        }
+    }
+}
+
+/// Every Riccati solve during the oval solve is backward stable: residual below 1e-10 of
+/// the right-hand side.
+#[test]
+fn riccati_residuals_during_oval_solve() {
+    use planner::ip::kkt::{Inertia, KktError};
+    use planner::ip::workspace::Workspace;
+    use planner::ip::Solver;
+    struct Checked {
+        inner: VehicleRiccati,
+        s: System,
+        worst: f64,
+    }
+    impl KktSolver for Checked {
+        fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+            self.s.hess.copy_from_slice(v.hess);
+            self.s.jac.copy_from_slice(v.jac);
+            self.s.dx.copy_from_slice(v.primal_diag);
+            self.s.dc.copy_from_slice(v.dual_diag);
+            self.inner.factorize(v)
+        }
+        fn solve(&mut self, x: &mut [f64], y: &mut [f64]) {
+            let (bx, by) = (x.to_vec(), y.to_vec());
+            self.inner.solve(x, y);
+            let (kx, ky) = matvec(&self.s, x, y);
+            let res = kx
+                .iter()
+                .zip(&bx)
+                .chain(ky.iter().zip(&by))
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            let scale = inf_norm(&bx).max(inf_norm(&by));
+            let rel = res / scale.max(1e-300);
+            if rel > self.worst {
+                self.worst = rel;
+            }
+        }
+    }
+    let settings = load_solver(&root().join("solver.toml")).unwrap();
+    let mut planner = oval_planner(KktBackendKind::Riccati);
+    planner.set_guess(GuessKind::Equilibrium);
+    let nlp = planner.nlp();
+    let mut rng = Rng(1);
+    let s = system(nlp, &mut rng, 0.0, false);
+    let st = nlp.stage_structure().unwrap();
+    let inner = VehicleRiccati::new(&st, s.n, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
+    let ws = Workspace::new(&*nlp, settings.max_iter + 2);
+    let mut solver = Solver::with_backend(
+        settings,
+        ws,
+        Checked {
+            inner,
+            s,
+            worst: 0.0,
+        },
+    );
+    let info = solver.solve(nlp);
+    assert_eq!(info.status, Status::Optimal);
+    let worst = solver.kkt().worst;
+    assert!(worst < 1e-10, "worst relative residual {worst:e}");
+}
+
+/// Same input, same bits: a second solve from the same guess repeats the first exactly.
+#[test]
+fn riccati_solves_are_repeatable() {
+    let mut p = oval_planner(KktBackendKind::Riccati);
+    let a = p.solve(GuessKind::Equilibrium);
+    let fa = p.solver().kkt().fallbacks();
+    let xa = p.solver().x().to_vec();
+    let b = p.solve(GuessKind::Equilibrium);
+    let fb = p.solver().kkt().fallbacks();
+    eprintln!(
+        "{} its ({fa} fallbacks) then {} its ({fb})",
+        a.iterations, b.iterations
+    );
+    assert_eq!(a.iterations, b.iterations);
+    assert!(xa
+        .iter()
+        .zip(p.solver().x())
+        .all(|(u, v)| u.to_bits() == v.to_bits()));
+}
+
+/// Dense LU solution of the KKT system (small N only).
+fn dense_solve(s: &System, bx: &[f64], by: &[f64]) -> Vec<f64> {
+    let dim = s.n + s.m;
+    let mut k = nalgebra::DMatrix::<f64>::zeros(dim, dim);
+    for ((&r, &c), &v) in s.hr.iter().zip(&s.hc).zip(&s.hess) {
+        k[(r, c)] += v;
+        if r != c {
+            k[(c, r)] += v;
+        }
+    }
+    for ((&r, &c), &v) in s.jr.iter().zip(&s.jc).zip(&s.jac) {
+        k[(s.n + r, c)] += v;
+        k[(c, s.n + r)] += v;
+    }
+    for i in 0..s.n {
+        k[(i, i)] += s.dx[i];
+    }
+    for i in 0..s.m {
+        k[(s.n + i, s.n + i)] += s.dc[i];
+    }
+    let b = nalgebra::DVector::from_iterator(dim, bx.iter().chain(by).copied());
+    k.lu()
+        .solve(&b)
+        .expect("nonsingular")
+        .iter()
+        .copied()
+        .collect()
+}
+
+/// Exact steps, with and without dual regularization and with large inequality terms on
+/// the initial rows, against a dense LU solve.
+#[test]
+fn steps_match_dense_solve() {
+    const N: usize = 5;
+    for (seed, fixed, delta_c) in [
+        (21u64, false, 0.0),
+        (22, true, 0.0),
+        (23, false, 1e-6),
+        (24, true, 1e-3),
+    ] {
+        let mut spec = small_spec(N);
+        if fixed {
+            let mut x0 = [0.0; 9];
+            x0[1] = 20.0;
+            x0[3] = 20.0;
+            spec.initial = InitialState::Fixed(x0);
+        }
+        let mut nlp = ImplicitEulerNlp::<N>::new(spec).unwrap();
+        let structure = nlp.stage_structure().unwrap();
+        let mut rng = Rng(seed);
+        let s = system(&mut nlp, &mut rng, delta_c, true);
+        let values = KktValues {
+            hess: &s.hess,
+            jac: &s.jac,
+            primal_diag: &s.dx,
+            dual_diag: &s.dc,
+        };
+        let mut ric = planner::ip::kkt::RiccatiKkt::<9, 3, 12>::new(
+            &structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc,
+        )
+        .unwrap();
+        ric.factorize(&values).unwrap();
+        let bx: Vec<f64> = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
+        let by: Vec<f64> = (0..s.m).map(|_| rng.range(-1.0, 1.0)).collect();
+        let (mut x, mut y) = (bx.clone(), by.clone());
+        ric.solve(&mut x, &mut y);
+        let exact = dense_solve(&s, &bx, &by);
+        let norm = inf_norm(&exact);
+        let diff = x
+            .iter()
+            .chain(&y)
+            .zip(&exact)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(
+            diff <= 1e-9 * norm,
+            "seed {seed}: diff {diff:e}, |step| {norm:e}"
+        );
+    }
+}

@@ -46,11 +46,23 @@ enum Row {
     Path(u32),
 }
 
-/// A path row: its Jacobian entries in `path_entries`.
+/// A path row: its Jacobian entries in `path_entries` and the arena targets of its
+/// outer product in `path_pairs`.
 #[derive(Debug, Clone, Copy)]
 struct PathRow {
     start: usize,
     end: usize,
+    pairs_start: usize,
+    pairs_end: usize,
+}
+
+/// One term of J_r^T J_r: entries `a` and `b` of the row (local indices) add their
+/// product to arena index `target` (lower triangle of W, or X).
+#[derive(Debug, Clone, Copy)]
+struct PathPair {
+    a: u16,
+    b: u16,
+    target: u32,
 }
 
 /// One Jacobian entry of a path row: value index, stage, position in the stage.
@@ -127,13 +139,18 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     n: usize,
     m: usize,
     stages: usize,
-    /// Arena index of every Hessian value (and of its mirror for off-diagonal entries).
-    hess_map: Vec<[u32; 2]>,
+    /// Arena index of every Hessian value (W blocks hold only their lower triangle until
+    /// they are read).
+    hess_map: Vec<u32>,
     /// Arena index of every Jacobian value (NONE for path rows).
     jac_map: Vec<u32>,
+    /// Jacobian entries have distinct targets: assigned, not summed, and the E, J
+    /// regions need no zeroing.
+    jac_assign: bool,
     rows: Vec<Row>,
     path_rows: Vec<PathRow>,
     path_entries: Vec<PathEntry>,
+    path_pairs: Vec<PathPair>,
     /// All assembled blocks, column-major: W_k (k = 0..=N; W_N uses the NX x NX corner),
     /// X_k (rows z_{k+1}, columns z_k), E_k (index N: initial rows), J_k.
     arena: Vec<f64>,
@@ -288,8 +305,14 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 }
             });
         }
+        let mut targets: Vec<u32> = jac_map.iter().copied().filter(|&t| t != NONE).collect();
+        let n_targets = targets.len();
+        targets.sort_unstable();
+        targets.dedup();
+        let jac_assign = targets.len() == n_targets;
         let mut path_rows = Vec::with_capacity(n_path as usize);
         let mut path_entries = Vec::new();
+        let mut path_pairs = Vec::new();
         for (p, ents) in per_path.iter().enumerate() {
             if let (Some(lo), Some(hi)) = (
                 ents.iter().map(|e| e.stage).min(),
@@ -305,9 +328,34 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             }
             let start = path_entries.len();
             path_entries.extend_from_slice(ents);
+            let pairs_start = path_pairs.len();
+            for (ia, a) in ents.iter().enumerate() {
+                for (ib, b) in ents.iter().enumerate() {
+                    let (sa, la, sb, lb) = (
+                        a.stage as usize,
+                        a.local as usize,
+                        b.stage as usize,
+                        b.local as usize,
+                    );
+                    let target = if sa == sb && la >= lb {
+                        w_at(sa, la, lb)
+                    } else if sb == sa + 1 {
+                        x_at(sa, lb, la)
+                    } else {
+                        continue;
+                    };
+                    path_pairs.push(PathPair {
+                        a: ia as u16,
+                        b: ib as u16,
+                        target,
+                    });
+                }
+            }
             path_rows.push(PathRow {
                 start,
                 end: path_entries.len(),
+                pairs_start,
+                pairs_end: path_pairs.len(),
             });
         }
 
@@ -323,13 +371,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             let (sa, la) = st.locate(a);
             let (sb, lb) = st.locate(b);
             hess_map.push(if sa == sb {
-                if la == lb {
-                    [w_at(sa, la, lb), NONE]
-                } else {
-                    [w_at(sa, la, lb), w_at(sa, lb, la)]
-                }
+                w_at(sa, la.max(lb), la.min(lb))
             } else if sa == sb + 1 {
-                [x_at(sb, la, lb), NONE]
+                x_at(sb, la, lb)
             } else {
                 return Err(StructureError::Coupling {
                     what: "Hessian",
@@ -352,11 +396,13 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             stages: big,
             hess_map,
             jac_map,
+            jac_assign,
             rows,
             path_w: vec![0.0; path_rows.len()],
             path_vals: vec![0.0; path_entries.len()],
             path_rows,
             path_entries,
+            path_pairs,
             arena: vec![0.0; arena_len],
             x_base,
             e_base,
@@ -380,17 +426,23 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     /// (step 1). Returns the number of path rows (one negative eigenvalue each).
     fn assemble(&mut self, v: &KktValues<'_>) -> Result<usize, KktError> {
         let arena = &mut self.arena;
-        arena.fill(0.0);
-        for (&[a, b], &h) in self.hess_map.iter().zip(v.hess) {
-            arena[a as usize] += h;
-            if b != NONE {
-                arena[b as usize] += h;
+        if self.jac_assign {
+            arena[..self.e_base].fill(0.0);
+            for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
+                if a != NONE {
+                    arena[a as usize] = jv;
+                }
+            }
+        } else {
+            arena.fill(0.0);
+            for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
+                if a != NONE {
+                    arena[a as usize] += jv;
+                }
             }
         }
-        for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
-            if a != NONE {
-                arena[a as usize] += jv;
-            }
+        for (&a, &h) in self.hess_map.iter().zip(v.hess) {
+            arena[a as usize] += h;
         }
         for (i, &d) in v.primal_diag.iter().enumerate() {
             let (s, l) = (i / NZ, i % NZ);
@@ -410,31 +462,28 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             }
         }
         // W += J_r^T J_r / |D_c| over the path rows (X for pairs across two stages).
-        let x_base = self.x_base;
         for (pr, &wgt) in self.path_rows.iter().zip(&self.path_w) {
-            let ents = &self.path_entries[pr.start..pr.end];
-            for (q, a) in ents.iter().enumerate() {
-                let ja = v.jac[a.jac];
-                self.path_vals[pr.start + q] = ja;
-                let ja = ja * wgt;
-                let (sa, la) = (a.stage as usize, a.local as usize);
-                for b in ents {
-                    let (sb, lb) = (b.stage as usize, b.local as usize);
-                    let val = ja * v.jac[b.jac];
-                    if sa == sb {
-                        arena[sa * NZ * NZ + lb * NZ + la] += val;
-                    } else if sb == sa + 1 {
-                        arena[x_base + sa * NZ * NZ + la * NZ + lb] += val;
-                    }
-                }
+            let vals = &mut self.path_vals[pr.start..pr.end];
+            for (val, e) in vals.iter_mut().zip(&self.path_entries[pr.start..pr.end]) {
+                *val = v.jac[e.jac];
+            }
+            for pp in &self.path_pairs[pr.pairs_start..pr.pairs_end] {
+                arena[pp.target as usize] += wgt * vals[pp.a as usize] * vals[pp.b as usize];
             }
         }
         Ok(self.path_rows.len())
     }
 
+    /// W_k, its upper triangle filled from the lower one.
     #[inline]
     fn w_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
-        SMatrix::from_column_slice(&self.arena[k * NZ * NZ..(k + 1) * NZ * NZ])
+        let mut w = SMatrix::from_column_slice(&self.arena[k * NZ * NZ..(k + 1) * NZ * NZ]);
+        for c in 0..NZ {
+            for r in c + 1..NZ {
+                w[(c, r)] = w[(r, c)];
+            }
+        }
+        w
     }
 
     #[inline]

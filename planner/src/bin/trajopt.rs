@@ -13,6 +13,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use plan_record::{now_ns, Record, Recorder};
 use planner::config::{load_scenario, load_solver, load_vehicle};
 use planner::guess::GuessKind;
+use planner::ip::kkt::KktBackendKind;
 use planner::ip::{BarrierRule, SolveInfo};
 use planner::plan::Planner;
 
@@ -94,6 +95,13 @@ enum BarrierArg {
     Loqo,
 }
 
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum KktArg {
+    Sparse,
+    Riccati,
+    Auto,
+}
+
 #[derive(clap::Args, Debug)]
 struct SolveArgs {
     /// Scenario file (paths inside resolve against its data root).
@@ -117,6 +125,9 @@ struct SolveArgs {
     /// Tire saturation constraints (overrides the scenario).
     #[arg(long, value_enum)]
     tire_saturation: Option<OnOff>,
+    /// KKT backend (overrides the solver file).
+    #[arg(long, value_enum)]
+    kkt: Option<KktArg>,
     /// Solve K times and report the median solve_ms.
     #[arg(long, default_value_t = 1)]
     repeat: usize,
@@ -205,6 +216,13 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         spec.enforce_tire_saturation = matches!(sat, OnOff::On);
     }
     let mut settings = load_solver(&resolve(&args.solver)).map_err(|e| e.to_string())?;
+    if let Some(k) = args.kkt {
+        settings.kkt = match k {
+            KktArg::Sparse => KktBackendKind::Sparse,
+            KktArg::Riccati => KktBackendKind::Riccati,
+            KktArg::Auto => KktBackendKind::Auto,
+        };
+    }
     if let Some(b) = args.barrier {
         settings.barrier = match b {
             BarrierArg::Monotone => BarrierRule::Monotone,
@@ -326,7 +344,8 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     let summary = format!(
         "{name}: status {status}, {it} iterations, solve {solve_ms:.2} ms (median of {rep}), \
          t_final {tf:.4} s, max violation {mv:.2e} (initial {iv:.2e}), max |beta| {mb:.3} rad\n  \
-         guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, tire saturation {sat}\n  \
+         guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, kkt {kkt}, \
+         tire saturation {sat}\n  \
          time: evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
          {nf} factorizations (max {mf} per iteration)",
         status = info.status.name(),
@@ -339,6 +358,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         guess = guess.name(),
         v = eq.x[planner::model::ix::V],
         barrier = settings.barrier.name(),
+        kkt = planner.solver().kkt().name(),
         sat = if saturation { "on" } else { "off" },
         ev = info.times.evaluation * 1e3,
         fa = info.times.factorization * 1e3,
@@ -364,6 +384,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "guess": guess.name(),
             "integrator": "implicit_euler",
             "barrier": settings.barrier.name(),
+            "kkt": planner.solver().kkt().name(),
             "tire_saturation": saturation,
             "dual_inf": info.dual_inf,
             "compl": info.compl,

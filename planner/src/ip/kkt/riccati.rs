@@ -518,7 +518,20 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         let mut phat = f.tr_mul(&(p * f));
         symmetrize(&mut phat);
         fac.f = f;
-        fac.chat = fac.y * f;
+        // C^ = Y F; Y is zero outside the few rows of z_k that couple to x_{k+1}.
+        for r in 0..NZ {
+            if (0..NX).all(|c| fac.y[(r, c)] == 0.0) {
+                fac.chat.row_mut(r).fill(0.0);
+            } else {
+                for c in 0..NX {
+                    let mut acc = 0.0;
+                    for i in 0..NX {
+                        acc += fac.y[(r, i)] * f[(i, c)];
+                    }
+                    fac.chat[(r, c)] = acc;
+                }
+            }
+        }
         let j = fac.j;
         fac.zero_delta = delta.iter().all(|&d| d == 0.0);
         let minus_identity =
@@ -761,13 +774,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
 impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt<NX, NU, NZ> {
     fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
         self.factorized = false;
-        if v.hess
-            .iter()
-            .chain(v.jac)
-            .chain(v.primal_diag)
-            .chain(v.dual_diag)
-            .any(|x| !x.is_finite())
-        {
+        let finite = |a: &[f64]| a.iter().fold(0.0, |acc, &x| acc + x * 0.0) == 0.0;
+        if !(finite(v.hess) && finite(v.jac) && finite(v.primal_diag) && finite(v.dual_diag)) {
             return Err(KktError::NonFinite);
         }
         let negative_path = self.assemble(v)?;
@@ -910,15 +918,20 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
             inv.swap_rows(p, c);
         }
         let piv = 1.0 / m[(c, c)];
-        for j in 0..D {
+        for j in c + 1..D {
             m[(c, j)] *= piv;
+        }
+        for j in 0..D {
             inv[(c, j)] *= piv;
         }
         for r in 0..D {
             let f = m[(r, c)];
             if r != c && f != 0.0 {
-                for j in 0..D {
+                // Columns <= c of m are done (zero off the pivot rows): only j > c change.
+                for j in c + 1..D {
                     m[(r, j)] -= f * m[(c, j)];
+                }
+                for j in 0..D {
                     inv[(r, j)] -= f * inv[(c, j)];
                 }
             }

@@ -222,7 +222,10 @@ fn study_stiffness_json_names_the_peak_and_its_state() {
     let state = v["peak_dominant_state"].as_str().unwrap();
     assert!(planner::model::STATE_NAMES.contains(&state), "{state}");
     let k = v["peak_node"].as_u64().unwrap() as usize;
-    assert!(k >= 1, "node 0 (free initial state) is excluded from the peak");
+    assert!(
+        k >= 1,
+        "node 0 (free initial state) is excluded from the peak"
+    );
     let p: f64 = v["nodes"][k]["participation"]
         .as_array()
         .unwrap()
@@ -230,6 +233,11 @@ fn study_stiffness_json_names_the_peak_and_its_state() {
         .map(|x| x.as_f64().unwrap())
         .sum();
     assert!((p - 1.0).abs() < 1e-9);
-    assert!(std::fs::metadata(v["figure"].as_str().unwrap()).unwrap().len() > 1000);
+    assert!(
+        std::fs::metadata(v["figure"].as_str().unwrap())
+            .unwrap()
+            .len()
+            > 1000
+    );
     let _ = std::fs::remove_dir_all(&out_dir);
 }

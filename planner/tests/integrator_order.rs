@@ -358,12 +358,11 @@ fn multistep_coefficients_are_consistent() {
         assert_eq!(m.b.len(), m.steps + 1, "{name}");
         // rho(1) = 0 and rho'(1) = sigma(1) (with a_j the coefficient of x_{n+1-j}).
         let rho1: f64 = m.a.iter().sum();
-        let drho: f64 = m
-            .a
-            .iter()
-            .enumerate()
-            .map(|(j, a)| a * (m.steps - j) as f64)
-            .sum();
+        let drho: f64 =
+            m.a.iter()
+                .enumerate()
+                .map(|(j, a)| a * (m.steps - j) as f64)
+                .sum();
         let sigma: f64 = m.b.iter().sum();
         assert!(rho1.abs() < 1e-14, "{name}: rho(1) = {rho1}");
         assert!((drho - sigma).abs() < 1e-14, "{name}: {drho} vs {sigma}");
@@ -389,7 +388,10 @@ fn multistep_defect_is_exact_on_polynomials_to_its_order() {
             if deg <= p {
                 assert!(d < 1e-12, "{name}: degree {deg} defect {d}");
             } else {
-                assert!(d > 1e-8, "{name}: degree {deg} defect {d} (order too high?)");
+                assert!(
+                    d > 1e-8,
+                    "{name}: degree {deg} defect {d} (order too high?)"
+                );
             }
         }
     }

@@ -56,7 +56,11 @@ fn stiffness_ratio_and_participation_on_a_known_matrix() {
     let sum: f64 = n.participation.iter().sum();
     assert!((sum - 1.0).abs() < 1e-12);
     // The -1000 mode's right eigenvector is e_beta, so beta participates fully.
-    assert!((n.participation[2] - 1.0).abs() < 1e-9, "{:?}", n.participation);
+    assert!(
+        (n.participation[2] - 1.0).abs() < 1e-9,
+        "{:?}",
+        n.participation
+    );
     let (re, im) = n.fastest.unwrap();
     assert!((re + 1000.0).abs() < 1e-9 && im.abs() < 1e-12);
     let (re, _) = n.slowest.unwrap();

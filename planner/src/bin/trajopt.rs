@@ -466,9 +466,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
 }
 
 /// Loads the vehicle, scenario and solver settings of a study.
-fn study_inputs(
-    f: &StudyFiles,
-) -> Result<(planner::ocp::OcpSpec, planner::ip::Settings), String> {
+fn study_inputs(f: &StudyFiles) -> Result<(planner::ocp::OcpSpec, planner::ip::Settings), String> {
     let vehicle = load_vehicle(&resolve(&f.vehicle)).map_err(|e| e.to_string())?;
     let spec = load_scenario(&resolve(&f.scenario), None, vehicle).map_err(|e| e.to_string())?;
     if spec.n_intervals != N {
@@ -486,7 +484,7 @@ fn study_inputs(
 /// `trajopt study integrators`: [`planner::study::integrators`].
 fn study_integrators(a: IntegratorsArgs) -> Result<(), String> {
     use planner::study::integrators::{run_study, Integrator, StudyConfig};
-    if a.repeat == 0 || !(a.max_time_s > 0.0) {
+    if a.repeat == 0 || a.max_time_s.is_nan() || a.max_time_s <= 0.0 {
         return Err("need --repeat >= 1 and --max-time-s > 0".into());
     }
     let integrators = if a.integrators.is_empty() {
@@ -520,7 +518,10 @@ fn study_integrators(a: IntegratorsArgs) -> Result<(), String> {
         )
     })
     .map_err(|e| e.to_string())?;
-    let png = a.files.out_dir.join(format!("{}_integrators.png", spec.name));
+    let png = a
+        .files
+        .out_dir
+        .join(format!("{}_integrators.png", spec.name));
     let figure = match planner::study::figures::plot_integrator_study(&study, &png) {
         Ok(()) => Some(png.display().to_string()),
         Err(e) => {
@@ -581,7 +582,7 @@ fn study_stiffness(a: StiffnessArgs) -> Result<(), String> {
     let fmt = |v: Option<f64>| v.map_or("none".to_string(), |r| format!("{r:.1}"));
     let summary = format!(
         "stiffness ({} Jacobian d(dx/ds)/dx) along the {} optimum: solve {}, t_N {:.4} s\n  \
-         peak stiffness ratio {} at node {} (s = {:.1} m), fastest mode dominated by {}\n  \
+         peak stiffness ratio {} at node {} (s = {:.1} m), fastest mode dominated by {} (slowest by {})\n  \
          nodes above 1e3: {} of {}; node 0 (free initial state) ratio {}\n  \
          dominant state of the fastest mode (nodes 1..N): {}\n  \
          vehicle dynamics only (r, V, beta, V_wr, dFz): peak ratio {} at node {}, dominated by {}",
@@ -593,6 +594,7 @@ fn study_stiffness(a: StiffnessArgs) -> Result<(), String> {
         study.peak_node.map_or("-".to_string(), |k| k.to_string()),
         study.peak_node.map_or(f64::NAN, |k| study.nodes[k].s),
         study.peak_dominant_state.unwrap_or("-"),
+        study.peak_slowest_state.unwrap_or("-"),
         study.nodes_above_1e3,
         study.nodes.len().saturating_sub(1),
         fmt(node0),

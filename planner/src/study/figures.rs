@@ -87,20 +87,26 @@ pub fn plot_integrator_study(study: &IntegratorStudy, path: &Path) -> Result<(),
         } else {
             format!("{} ({})", r.integrator.name(), r.status)
         };
+        let text = Text::new(label, (10, -18), (FONT, 16));
         if r.success {
             let c = if r.a_stable { blue } else { orange };
             chart
-                .draw_series([Circle::new(p, 7, c.filled())])
+                .draw_series([EmptyElement::at(p) + Circle::new((0, 0), 7, c.filled()) + text])
                 .map_err(draw_err)?;
         } else {
             chart
-                .draw_series([Cross::new(p, 8, RED.stroke_width(3))])
+                .draw_series([EmptyElement::at(p)
+                    + Cross::new((0, 0), 8, RED.stroke_width(3))
+                    + text])
                 .map_err(draw_err)?;
         }
-        chart
-            .draw_series([Text::new(label, p, (FONT, 16))])
-            .map_err(draw_err)?;
     }
+    root.draw(&Text::new(
+        "blue: A-stable, orange: not A-stable, red cross: solve failed (status in the label)",
+        (110, 70),
+        (FONT, 16),
+    ))
+    .map_err(draw_err)?;
     root.present().map_err(draw_err)?;
     Ok(())
 }
@@ -134,15 +140,25 @@ pub fn plot_stiffness(study: &StiffnessStudy, title: &str, path: &Path) -> Resul
         .draw()
         .map_err(draw_err)?;
     chart
-        .draw_series(LineSeries::new(ratios.clone(), RGBColor(31, 119, 180).stroke_width(2)))
+        .draw_series(LineSeries::new(
+            ratios.clone(),
+            RGBColor(31, 119, 180).stroke_width(2),
+        ))
         .map_err(draw_err)?
         .label("SR")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RGBColor(31, 119, 180)));
     chart
-        .draw_series(ratios.iter().map(|&p| Circle::new(p, 2, RGBColor(31, 119, 180).filled())))
+        .draw_series(
+            ratios
+                .iter()
+                .map(|&p| Circle::new(p, 2, RGBColor(31, 119, 180).filled())),
+        )
         .map_err(draw_err)?;
     chart
-        .draw_series(LineSeries::new([(0.0, 1e3), (s_max, 1e3)], RED.stroke_width(1)))
+        .draw_series(LineSeries::new(
+            [(0.0, 1e3), (s_max, 1e3)],
+            RED.stroke_width(1),
+        ))
         .map_err(draw_err)?
         .label("stiff threshold 1e3")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED));

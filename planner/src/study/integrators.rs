@@ -297,7 +297,7 @@ fn run_scheme<S: DefectScheme, const N: usize>(
     let (mut xs, mut us) = (vec![[0.0; NX]; N + 1], vec![[0.0; NU]; N]);
     fill_equilibrium(&eq, spec.ds(), None, &mut xs, &mut us);
     let mut nlp = Transcription::<S, N>::with_scheme(spec.clone(), scheme)?;
-    let mut solver = Solver::new(&nlp, settings.clone())?;
+    let mut solver = Solver::new(&nlp, *settings)?;
     let mut times = Vec::with_capacity(repeat);
     let mut last = None;
     for _ in 0..repeat {

@@ -53,6 +53,9 @@ pub struct NodeStiffness {
     pub participation: [f64; NX],
     /// State with the largest participation in the fastest mode.
     pub dominant_state: Option<&'static str>,
+    /// State with the largest participation in the slowest decaying mode (the
+    /// denominator of eq. 7).
+    pub slowest_dominant_state: Option<&'static str>,
     /// Dominant state of every mode, in `eigenvalues` order.
     pub mode_states: Vec<&'static str>,
     /// Eq. (7) on the 5 x 5 sub-Jacobian of r, V, beta, V_wr, dFz (see the module docs).
@@ -104,7 +107,9 @@ fn modes(k: usize, j: &[Vec<f64>]) -> Result<Modes, StudyError> {
     };
     let participation = (0..n)
         .map(|mode| {
-            let mut p: Vec<f64> = (0..n).map(|i| (wl[(mode, i)] * vr[(i, mode)]).norm()).collect();
+            let mut p: Vec<f64> = (0..n)
+                .map(|i| (wl[(mode, i)] * vr[(i, mode)]).norm())
+                .collect();
             let total: f64 = p.iter().sum();
             if total > 0.0 {
                 p.iter_mut().for_each(|v| *v /= total);
@@ -145,6 +150,8 @@ pub struct StiffnessStudy {
     pub peak_ratio: Option<f64>,
     /// Dominant state of the fastest mode at the peak.
     pub peak_dominant_state: Option<&'static str>,
+    /// Dominant state of the slowest decaying mode at the peak.
+    pub peak_slowest_state: Option<&'static str>,
     /// Nodes (k >= 1) whose ratio exceeds the classical stiff threshold 1e3.
     pub nodes_above_1e3: usize,
     /// Over nodes k >= 1 with a ratio: how often each state dominates the fastest mode.
@@ -187,6 +194,10 @@ pub fn analyze_jacobian(
         .fast
         .and_then(|f| argmax(&m.participation[f]))
         .map(|i| STATE_NAMES[i]);
+    let slowest_dominant_state = m
+        .slow
+        .and_then(|f| argmax(&m.participation[f]))
+        .map(|i| STATE_NAMES[i]);
     let mode_states = m
         .participation
         .iter()
@@ -210,6 +221,7 @@ pub fn analyze_jacobian(
         eigenvalues: m.lam,
         participation,
         dominant_state,
+        slowest_dominant_state,
         mode_states,
         dynamic_ratio: d.ratio,
         dynamic_dominant_state,
@@ -238,7 +250,9 @@ pub fn analyze(
         let u = us[k.min(us.len() - 1)];
         let jac = spatial_jacobian(p, x, &u, kappa[k]);
         if jac.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(StudyError::Invalid(format!("node {k}: Jacobian is not finite")));
+            return Err(StudyError::Invalid(format!(
+                "node {k}: Jacobian is not finite"
+            )));
         }
         nodes.push(analyze_jacobian(k, k as f64 * ds, &jac)?);
     }
@@ -272,6 +286,7 @@ pub fn analyze(
         peak_node: peak.map(|p| p.0),
         peak_ratio: peak.map(|p| p.1),
         peak_dominant_state: peak.and_then(|(k, _)| nodes[k].dominant_state),
+        peak_slowest_state: peak.and_then(|(k, _)| nodes[k].slowest_dominant_state),
         nodes_above_1e3: above,
         dominant_counts,
         dynamic_peak_node: dyn_peak.map(|p| p.0),

@@ -148,8 +148,7 @@ const M3: usize = 5 * NX + NU;
 /// Local indices entering the 3-stage rows nonlinearly: u_k and r..dpsi of the three
 /// stage states.
 const NL3: [usize; 24] = [
-    9, 10, 11, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 36, 39, 40, 41, 42, 43, 44,
-    45,
+    9, 10, 11, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 36, 39, 40, 41, 42, 43, 44, 45,
 ];
 
 /// Names of the 36 defect rows of the 3-stage scheme.

@@ -19,15 +19,16 @@ fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError::Draw(e.to_string())
 }
 
-/// Log-axis range covering `v` (positive finite values) with a margin.
-fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+/// Log-axis range covering `v` (positive finite values) with a margin of a factor 2 below
+/// and `up` above.
+fn log_range(v: impl Iterator<Item = f64>, up: f64) -> std::ops::Range<f64> {
     let (lo, hi) = v
         .filter(|x| x.is_finite() && *x > 0.0)
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
             (a.min(x), b.max(x))
         });
     if lo.is_finite() && hi.is_finite() {
-        lo / 2.0..hi * 2.0
+        lo / 2.0..hi * up
     } else {
         0.1..10.0
     }
@@ -53,8 +54,9 @@ pub fn plot_integrator_study(study: &IntegratorStudy, path: &Path) -> Result<(),
         .filter(|r| !(r.max_nrmse_pct.is_finite() && r.max_nrmse_pct > 0.0 && r.median_ms > 0.0))
         .map(|r| r.integrator.name())
         .collect();
-    let xr = log_range(shown.iter().map(|r| r.median_ms));
-    let yr = log_range(shown.iter().map(|r| r.max_nrmse_pct));
+    // Room on the right for the labels.
+    let xr = log_range(shown.iter().map(|r| r.median_ms), 6.0);
+    let yr = log_range(shown.iter().map(|r| r.max_nrmse_pct), 2.0);
     let root = BitMapBackend::new(path, STUDY_FIGURE_SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;
     let mut caption = format!(
@@ -125,7 +127,7 @@ pub fn plot_stiffness(study: &StiffnessStudy, title: &str, path: &Path) -> Resul
         .iter()
         .filter_map(|n| n.ratio.map(|r| (n.s, r)))
         .collect();
-    let yr = log_range(ratios.iter().map(|p| p.1).chain([1e3]));
+    let yr = log_range(ratios.iter().map(|p| p.1).chain([1e3]), 2.0);
     let mut chart = ChartBuilder::on(&top)
         .caption(title, (FONT, 22))
         .margin(15)

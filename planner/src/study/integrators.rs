@@ -258,7 +258,7 @@ pub fn nrmse_pct(s: &[f64], u: &[f64], s_ref: &[f64], u_ref: &[f64]) -> f64 {
     }
     let at = |x: f64| -> f64 {
         let last = s_ref.len() - 1;
-        if x <= s_ref[0] {
+        if last == 0 || x.is_nan() || x <= s_ref[0] {
             return u_ref[0];
         }
         if x >= s_ref[last] {

@@ -90,11 +90,9 @@ fn modes(k: usize, j: &[Vec<f64>]) -> Result<Modes, StudyError> {
         let v = eig.U()[(r, c)];
         nalgebra::Complex::new(v.re, v.im)
     });
-    let wl = vr.clone().try_inverse().ok_or_else(|| {
-        StudyError::Invalid(format!(
-            "node {k}: eigenvector matrix is singular (defective Jacobian)"
-        ))
-    })?;
+    // W = V^-1; None for a numerically defective Jacobian (then no participation factors,
+    // the eigenvalues and the ratio stay valid).
+    let wl = vr.clone().try_inverse();
     let scale = lam.iter().map(|(a, b)| a.hypot(*b)).fold(0.0, f64::max);
     let tol = 1e-6 * scale;
     let stable: Vec<usize> = (0..n).filter(|&i| lam[i].0 < -tol).collect();
@@ -107,11 +105,14 @@ fn modes(k: usize, j: &[Vec<f64>]) -> Result<Modes, StudyError> {
     };
     let participation = (0..n)
         .map(|mode| {
+            let Some(wl) = &wl else {
+                return vec![0.0; n];
+            };
             let mut p: Vec<f64> = (0..n)
                 .map(|i| (wl[(mode, i)] * vr[(i, mode)]).norm())
                 .collect();
             let total: f64 = p.iter().sum();
-            if total > 0.0 {
+            if total > 0.0 && total.is_finite() {
                 p.iter_mut().for_each(|v| *v /= total);
             }
             p
@@ -126,9 +127,11 @@ fn modes(k: usize, j: &[Vec<f64>]) -> Result<Modes, StudyError> {
     })
 }
 
-/// Index of the largest entry.
+/// Index of the largest entry (None if no entry is positive, e.g. no participation factors).
 fn argmax(v: &[f64]) -> Option<usize> {
-    (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b]))
+    (0..v.len())
+        .max_by(|&a, &b| v[a].total_cmp(&v[b]))
+        .filter(|&i| v[i] > 0.0)
 }
 
 /// The vehicle-dynamics states of the sub-Jacobian (paper eq. 8's x_dyn).
@@ -178,7 +181,8 @@ pub fn spatial_jacobian(
 }
 
 /// Eigen-analysis of one Jacobian (see the module docs). Errors if the eigendecomposition
-/// fails or the eigenvector matrix is singular (a defective Jacobian).
+/// fails; a singular eigenvector matrix (defective Jacobian) leaves the participation
+/// factors at zero and the dominant states unnamed.
 pub fn analyze_jacobian(
     k: usize,
     s: f64,

@@ -132,3 +132,112 @@ fn solve_record_writes_a_replayable_mcap() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent-dir/x.mcap"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `trajopt study integrators --json` in a reduced variant (two fast integrators, implicit
+/// Euler as the reference instead of the 8 s Gauss-Legendre 3 ground truth): one JSON
+/// object with the table's fields, and the scatter PNG.
+#[test]
+fn study_integrators_json_has_the_contract_fields() {
+    let out_dir = std::env::temp_dir().join(format!("trajopt-study-int-{}", std::process::id()));
+    let out = trajopt()
+        .args([
+            "study",
+            "integrators",
+            "--repeat",
+            "1",
+            "--integrators",
+            "bdf4,adams_moulton3",
+            "--reference",
+            "implicit_euler",
+            "--json",
+            "--out-dir",
+        ])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    assert_eq!(v["reference"], "implicit_euler");
+    assert_eq!(v["repeat"], 1);
+    let runs = v["runs"].as_array().unwrap();
+    let names: Vec<&str> = runs
+        .iter()
+        .map(|r| r["integrator"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["bdf4", "adams_moulton3", "implicit_euler"]);
+    for r in runs {
+        for key in [
+            "status",
+            "iterations",
+            "median_ms",
+            "max_nrmse_pct",
+            "nrmse_pct",
+            "t_final",
+        ] {
+            assert!(r.get(key).is_some(), "missing {key} in {r}");
+        }
+        assert!(r["median_ms"].as_f64().unwrap() > 0.0);
+        assert_eq!(r["nrmse_pct"].as_array().unwrap().len(), 3);
+    }
+    assert_eq!(runs[2]["max_nrmse_pct"].as_f64(), Some(0.0));
+    assert!(runs[0]["max_nrmse_pct"].as_f64().unwrap() > 0.0);
+    // The human table went to stderr.
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("max NRMSE%") && err.contains("bdf4"), "{err}");
+    let png = v["figure"].as_str().unwrap();
+    assert!(std::fs::metadata(png).unwrap().len() > 1000);
+    // Unknown names are bad input.
+    let out = trajopt()
+        .args(["study", "integrators", "--integrators", "rk45"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("rk45"));
+    let _ = std::fs::remove_dir_all(&out_dir);
+}
+
+#[test]
+fn study_stiffness_json_names_the_peak_and_its_state() {
+    let out_dir = std::env::temp_dir().join(format!("trajopt-study-st-{}", std::process::id()));
+    let out = trajopt()
+        .args(["study", "stiffness", "--json", "--out-dir"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(v["status"], "optimal");
+    assert_eq!(v["jacobian"], "spatial");
+    assert_eq!(v["nodes"].as_array().unwrap().len(), 101);
+    assert!(v["peak_ratio"].as_f64().unwrap() > 1.0);
+    let state = v["peak_dominant_state"].as_str().unwrap();
+    assert!(planner::model::STATE_NAMES.contains(&state), "{state}");
+    let k = v["peak_node"].as_u64().unwrap() as usize;
+    assert!(
+        k >= 1,
+        "node 0 (free initial state) is excluded from the peak"
+    );
+    let p: f64 = v["nodes"][k]["participation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .sum();
+    assert!((p - 1.0).abs() < 1e-9);
+    assert!(
+        std::fs::metadata(v["figure"].as_str().unwrap())
+            .unwrap()
+            .len()
+            > 1000
+    );
+    let _ = std::fs::remove_dir_all(&out_dir);
+}

@@ -1,5 +1,5 @@
 //! Exact Jacobian and Lagrangian Hessian of the whole NLP for the Crank-Nicolson, RK2,
-//! RK4 and Gauss-Legendre 2 transcriptions against central finite differences (a short
+//! RK4, Gauss-Legendre 2 / 3, BDF4-6 and Adams-Moulton transcriptions against central finite differences (a short
 //! N = 10 piece of the oval keeps the dense FD loops fast).
 
 mod common;
@@ -10,7 +10,8 @@ use planner::model::ix;
 use planner::ocp::fixtures::oval_spec;
 use planner::ocp::scaling::X_NOMINAL;
 use planner::ocp::{
-    CrankNicolson, DefectScheme, ExplicitRk2, ExplicitRk4, GaussLegendre2, OcpSpec, Transcription,
+    CrankNicolson, DefectScheme, ExplicitRk2, ExplicitRk4, GaussLegendre2, GaussLegendre3,
+    LinearMultistep, OcpSpec, Transcription,
 };
 use std::collections::HashSet;
 
@@ -228,6 +229,24 @@ fn rk4_derivatives_match_fd() {
 #[test]
 fn gauss_legendre2_derivatives_match_fd() {
     check_all(GaussLegendre2);
+}
+
+#[test]
+fn gauss_legendre3_derivatives_match_fd() {
+    check_all(GaussLegendre3);
+}
+
+/// N = 10 covers the start-up intervals (lower-order formulas) and the full formulas.
+#[test]
+fn multistep_derivatives_match_fd() {
+    for scheme in [
+        LinearMultistep::BDF4,
+        LinearMultistep::BDF5,
+        LinearMultistep::BDF6,
+        LinearMultistep::ADAMS_MOULTON3,
+    ] {
+        check_all(scheme);
+    }
 }
 
 /// The NLP's RK4 defect vanishes on a trajectory built by stepping the model with RK4

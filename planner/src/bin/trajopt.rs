@@ -39,6 +39,66 @@ enum Command {
     Guess(GuessArgs),
     /// Run the planner and tracker processes (ipc crate) in closed loop and summarise.
     ClosedLoop(ClosedLoopArgs),
+    /// Reproduce a study of the paper (table + PNG; `--json` for one JSON object).
+    Study(StudyArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct StudyArgs {
+    #[command(subcommand)]
+    which: StudyCommand,
+}
+
+#[derive(Subcommand, Debug)]
+enum StudyCommand {
+    /// The nine integrators vs the Gauss-Legendre 3 ground truth (paper Table I, Fig. 4a).
+    Integrators(IntegratorsArgs),
+    /// Stiffness ratio and participation factors along the optimal oval (paper Fig. 3).
+    Stiffness(StiffnessArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct StudyFiles {
+    /// Scenario file.
+    #[arg(long, default_value = "config/scenarios/oval.toml")]
+    scenario: PathBuf,
+    /// Vehicle file.
+    #[arg(long, default_value = "config/vehicles/lc500.toml")]
+    vehicle: PathBuf,
+    /// Solver settings file.
+    #[arg(long, default_value = "config/solver.toml")]
+    solver: PathBuf,
+    /// Print exactly one JSON object on stdout (the table goes to stderr).
+    #[arg(long)]
+    json: bool,
+    /// Folder for the PNG.
+    #[arg(long, default_value = "out")]
+    out_dir: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct IntegratorsArgs {
+    #[command(flatten)]
+    files: StudyFiles,
+    /// Solves per integrator (the median time is reported).
+    #[arg(long, default_value_t = 10)]
+    repeat: usize,
+    /// Comma-separated subset (default: all nine); the reference always runs.
+    #[arg(long, value_delimiter = ',')]
+    integrators: Vec<String>,
+    /// Ground truth of the NRMSE (the paper's: gauss_legendre3; others only for quick checks).
+    #[arg(long, default_value = "gauss_legendre3")]
+    reference: String,
+    /// Wall-clock cap per solve [s] (overrides the solver file: the oracle-derivative
+    /// schemes are not real-time).
+    #[arg(long, default_value_t = 120.0)]
+    max_time_s: f64,
+}
+
+#[derive(clap::Args, Debug)]
+struct StiffnessArgs {
+    #[command(flatten)]
+    files: StudyFiles,
 }
 
 #[derive(clap::Args, Debug)]
@@ -181,6 +241,10 @@ fn main() -> ExitCode {
         Command::Solve(args) => solve(args),
         Command::Guess(args) => guess(args),
         Command::ClosedLoop(args) => closed_loop(args),
+        Command::Study(args) => match args.which {
+            StudyCommand::Integrators(a) => study_integrators(a),
+            StudyCommand::Stiffness(a) => study_stiffness(a),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -417,6 +481,163 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         }
         if let Some(path) = &args.record {
             println!("  recorded {} ({recording})", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// Loads the vehicle, scenario and solver settings of a study.
+fn study_inputs(f: &StudyFiles) -> Result<(planner::ocp::OcpSpec, planner::ip::Settings), String> {
+    let vehicle = load_vehicle(&resolve(&f.vehicle)).map_err(|e| e.to_string())?;
+    let spec = load_scenario(&resolve(&f.scenario), None, vehicle).map_err(|e| e.to_string())?;
+    if spec.n_intervals != N {
+        return Err(format!(
+            "scenario has n_intervals = {}; this build solves N = {N}",
+            spec.n_intervals
+        ));
+    }
+    let settings = load_solver(&resolve(&f.solver)).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(&f.out_dir)
+        .map_err(|e| format!("{}: cannot create: {e}", f.out_dir.display()))?;
+    Ok((spec, settings))
+}
+
+/// `trajopt study integrators`: [`planner::study::integrators`].
+fn study_integrators(a: IntegratorsArgs) -> Result<(), String> {
+    use planner::study::integrators::{run_study, Integrator, StudyConfig};
+    if a.repeat == 0 || a.max_time_s.is_nan() || a.max_time_s <= 0.0 {
+        return Err("need --repeat >= 1 and --max-time-s > 0".into());
+    }
+    let integrators = if a.integrators.is_empty() {
+        // Table I: the nine integrators (the reference is appended by the study).
+        Integrator::ALL
+            .into_iter()
+            .filter(|i| *i != Integrator::REFERENCE)
+            .collect()
+    } else {
+        a.integrators
+            .iter()
+            .map(|n| Integrator::from_name(n.trim()))
+            .collect::<Result<_, _>>()
+            .map_err(|e| e.to_string())?
+    };
+    let reference = Integrator::from_name(a.reference.trim()).map_err(|e| e.to_string())?;
+    let (spec, mut settings) = study_inputs(&a.files)?;
+    settings.max_time_s = a.max_time_s;
+    let config = StudyConfig {
+        repeat: a.repeat,
+        integrators,
+        reference,
+    };
+    let study = run_study::<N>(&spec, &settings, &config, |r| {
+        eprintln!(
+            "  {}: {} in {} iterations, median {:.1} ms",
+            r.integrator.name(),
+            r.status,
+            r.iterations,
+            r.median_ms
+        )
+    })
+    .map_err(|e| e.to_string())?;
+    let png = a
+        .files
+        .out_dir
+        .join(format!("{}_integrators.png", spec.name));
+    let figure = match planner::study::figures::plot_integrator_study(&study, &png) {
+        Ok(()) => Some(png.display().to_string()),
+        Err(e) => {
+            eprintln!("trajopt: warning: figure not written: {e}");
+            None
+        }
+    };
+    let table = study.table();
+    if a.files.json {
+        eprint!("{table}");
+        let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
+        v["figure"] = serde_json::json!(figure);
+        println!("{v}");
+    } else {
+        print!("{table}");
+        if let Some(f) = figure {
+            println!("  wrote {f}");
+        }
+    }
+    Ok(())
+}
+
+/// `trajopt study stiffness`: [`planner::study::stiffness`] along the implicit-Euler
+/// optimum of the scenario.
+fn study_stiffness(a: StiffnessArgs) -> Result<(), String> {
+    let (spec, settings) = study_inputs(&a.files)?;
+    let mut planner = Planner::<N>::new(spec, settings).map_err(|e| e.to_string())?;
+    let info = planner.solve(GuessKind::Equilibrium);
+    let spec = planner.spec().clone();
+    let study = planner::study::stiffness::analyze(
+        &spec.vehicle,
+        planner.states(),
+        planner.controls(),
+        &spec.kappa,
+        spec.ds(),
+    )
+    .map_err(|e| e.to_string())?;
+    let png = a.files.out_dir.join(format!("{}_stiffness.png", spec.name));
+    let title = format!(
+        "{}: stiffness along the implicit-Euler optimum ({}), dx/ds Jacobian",
+        spec.name,
+        info.status.name()
+    );
+    let figure = match planner::study::figures::plot_stiffness(&study, &title, &png) {
+        Ok(()) => Some(png.display().to_string()),
+        Err(e) => {
+            eprintln!("trajopt: warning: figure not written: {e}");
+            None
+        }
+    };
+    let node0 = study.nodes.first().and_then(|n| n.ratio);
+    let dominant: Vec<String> = planner::model::STATE_NAMES
+        .iter()
+        .zip(study.dominant_counts)
+        .filter(|(_, c)| *c > 0)
+        .map(|(n, c)| format!("{n} {c}"))
+        .collect();
+    let fmt = |v: Option<f64>| v.map_or("none".to_string(), |r| format!("{r:.1}"));
+    let summary = format!(
+        "stiffness ({} Jacobian d(dx/ds)/dx) along the {} optimum: solve {}, t_N {:.4} s\n  \
+         peak stiffness ratio {} at node {} (s = {:.1} m), fastest mode dominated by {} (slowest by {})\n  \
+         nodes above 1e3: {} of {}; node 0 (free initial state) ratio {}\n  \
+         dominant state of the fastest mode (nodes 1..N): {}\n  \
+         vehicle dynamics only (r, V, beta, V_wr, dFz): peak ratio {} at node {}, dominated by {}",
+        study.jacobian,
+        spec.name,
+        info.status.name(),
+        planner.states()[N][planner::model::ix::T],
+        fmt(study.peak_ratio),
+        study.peak_node.map_or("-".to_string(), |k| k.to_string()),
+        study.peak_node.map_or(f64::NAN, |k| study.nodes[k].s),
+        study.peak_dominant_state.unwrap_or("-"),
+        study.peak_slowest_state.unwrap_or("-"),
+        study.nodes_above_1e3,
+        study.nodes.len().saturating_sub(1),
+        fmt(node0),
+        dominant.join(", "),
+        fmt(study.dynamic_peak_ratio),
+        study
+            .dynamic_peak_node
+            .map_or("-".to_string(), |k| k.to_string()),
+        study.dynamic_peak_dominant_state.unwrap_or("-"),
+    );
+    if a.files.json {
+        eprintln!("{summary}");
+        let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
+        v["scenario"] = serde_json::json!(spec.name);
+        v["status"] = serde_json::json!(info.status.name());
+        v["iterations"] = serde_json::json!(info.iterations);
+        v["figure"] = serde_json::json!(figure);
+        println!("{v}");
+    } else {
+        println!("{summary}");
+        if let Some(f) = figure {
+            println!("  wrote {f}");
         }
     }
     Ok(())

@@ -16,5 +16,6 @@ pub use layout::Layout;
 pub use spec::{InitialState, OcpSpec};
 pub use transcription::{
     CrankNicolson, DefectScheme, Derivatives, ExplicitRk2, ExplicitRk4, GaussLegendre2,
-    ImplicitEuler, ImplicitEulerNlp, RowInfo, RowKind, Transcription, TranscriptionError,
+    GaussLegendre3, ImplicitEuler, ImplicitEulerNlp, LinearMultistep, MultistepFamily, RowInfo,
+    RowKind, Transcription, TranscriptionError,
 };

@@ -13,7 +13,7 @@ use crate::ocp::layout::Layout;
 use num_dual::{Dual2SVec64, DualNum, DualSVec64};
 
 /// Largest number of defect rows of one interval supported here.
-pub(crate) const MAX_ROWS: usize = 27;
+pub(crate) const MAX_ROWS: usize = 36;
 
 /// Defect rows of one interval as a function of its M local (scaled) variables.
 pub(crate) trait LocalResidual<const M: usize> {

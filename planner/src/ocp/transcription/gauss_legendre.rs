@@ -1,4 +1,5 @@
-//! 2-stage Gauss-Legendre collocation (order 4, A-stable), with the two stage states of
+//! Gauss-Legendre collocation: the 2-stage scheme (order 4, A-stable) and the 3-stage ground
+//! truth [`GaussLegendre3`] (order 6). The 2-stage scheme has the two stage states of
 //! every interval as decision variables of the NLP (STAGE_VARS = 2 NX, stored in the
 //! layout's w_k slots as [X_1, X_2], scaled like the states; no inner Newton loop).
 //!
@@ -134,6 +135,144 @@ impl DefectScheme for GaussLegendre2 {
     fn guess_stage_vars(&self, cx: &SchemeContext, k: usize, z: &mut [f64]) {
         let lay = &cx.layout;
         for (j, c) in steps::GL2_C.iter().enumerate() {
+            for i in 0..NX {
+                let (a, b) = (z[lay.x(k, i)], z[lay.x(k + 1, i)]);
+                z[lay.w(k, j * NX + i)] = a + c * (b - a);
+            }
+        }
+    }
+}
+
+/// Local variables of the 3-stage scheme: x_k (9), u_k (3), x_{k+1} (9), X_1..X_3 (27).
+const M3: usize = 5 * NX + NU;
+/// Local indices entering the 3-stage rows nonlinearly: u_k and r..dpsi of the three
+/// stage states.
+const NL3: [usize; 24] = [
+    9, 10, 11, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 36, 39, 40, 41, 42, 43, 44, 45,
+];
+
+/// Names of the 36 defect rows of the 3-stage scheme.
+const ROW_NAMES3: [&str; 4 * NX] = [
+    "stage1.r",
+    "stage1.V",
+    "stage1.beta",
+    "stage1.V_wr",
+    "stage1.dFz",
+    "stage1.e",
+    "stage1.dpsi",
+    "stage1.s",
+    "stage1.t",
+    "stage2.r",
+    "stage2.V",
+    "stage2.beta",
+    "stage2.V_wr",
+    "stage2.dFz",
+    "stage2.e",
+    "stage2.dpsi",
+    "stage2.s",
+    "stage2.t",
+    "stage3.r",
+    "stage3.V",
+    "stage3.beta",
+    "stage3.V_wr",
+    "stage3.dFz",
+    "stage3.e",
+    "stage3.dpsi",
+    "stage3.s",
+    "stage3.t",
+    "r",
+    "V",
+    "beta",
+    "V_wr",
+    "dFz",
+    "e",
+    "dpsi",
+    "s",
+    "t",
+];
+
+/// 3-stage Gauss-Legendre collocation (order 6, A-stable): the paper's ground truth
+/// (Sec. IV). The three stage states of every interval are decision variables of the NLP
+/// (STAGE_VARS = 3 NX, stored in w_k as [X_1, X_2, X_3], scaled like the states; no inner
+/// Newton loop); 4 NX rows per interval, see [`steps::gauss_legendre3`]. u_k is held and
+/// k_ref is linearly interpolated to the stage positions s_k + c_j ds. Exact derivatives by
+/// the num-dual oracle.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GaussLegendre3;
+
+impl LocalResidual<M3> for GaussLegendre3 {
+    const ROWS: usize = 4 * NX;
+
+    fn cols(&self, lay: &Layout, k: usize) -> [usize; M3] {
+        std::array::from_fn(|l| {
+            if l < NX {
+                lay.x(k, l)
+            } else if l < X1 {
+                lay.u(k, l - NX)
+            } else if l < W {
+                lay.x(k + 1, l - X1)
+            } else {
+                lay.w(k, l - W)
+            }
+        })
+    }
+
+    fn residual<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        cx: &SchemeContext,
+        k: usize,
+        v: &[D; M3],
+        out: &mut [D],
+    ) {
+        let state = |off: usize| -> [D; NX] { std::array::from_fn(|i| v[off + i] * X_NOMINAL[i]) };
+        let u: [D; NU] = std::array::from_fn(|j| v[NX + j] * U_NOMINAL[j]);
+        let f =
+            |x: &[D; NX], c: f64| spatial_derivatives(cx.vehicle, x, &u, kappa_at(cx.kappa, k, c));
+        let (x0, x1) = (state(0), state(X1));
+        let xs = [state(W), state(W + NX), state(W + 2 * NX)];
+        steps::gauss_legendre3(cx.ds, &x0, &x1, &xs, f, out);
+        for (r, o) in out.iter_mut().enumerate().take(4 * NX) {
+            *o /= X_NOMINAL[r % NX];
+        }
+    }
+}
+
+impl DefectScheme for GaussLegendre3 {
+    const STAGE_VARS: usize = 3 * NX;
+    const ROWS: usize = 4 * NX;
+
+    fn name(&self) -> &'static str {
+        "gauss_legendre3"
+    }
+
+    fn row_name(&self, row: usize) -> &'static str {
+        ROW_NAMES3[row]
+    }
+
+    fn jac_pattern(&self, lay: &Layout, k: usize, push: &mut dyn FnMut(usize, usize)) {
+        dense::jac_pattern(self, lay, k, push)
+    }
+
+    fn eval(&self, cx: &SchemeContext, k: usize, z: &[f64], out: &mut [f64]) {
+        dense::eval(self, cx, k, z, out)
+    }
+
+    fn jac(&self, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
+        dense::jac(self, cx, k, z, vals)
+    }
+
+    fn hess_pattern(&self, lay: &Layout, k: usize, push: &mut dyn FnMut(usize, usize)) {
+        dense::hess_pattern(self, lay, k, &NL3, push)
+    }
+
+    fn hess(&self, cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
+        dense::hess(self, cx, k, z, &NL3, lambda, vals)
+    }
+
+    /// Stage states on the straight line between the nodes: X_j = x_k + c_j (x_{k+1} - x_k).
+    fn guess_stage_vars(&self, cx: &SchemeContext, k: usize, z: &mut [f64]) {
+        let lay = &cx.layout;
+        for (j, c) in steps::GL3_C.iter().enumerate() {
             for i in 0..NX {
                 let (a, b) = (z[lay.x(k, i)], z[lay.x(k + 1, i)]);
                 z[lay.w(k, j * NX + i)] = a + c * (b - a);

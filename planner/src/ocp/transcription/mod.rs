@@ -8,8 +8,10 @@
 //! integrators (RK2/4, BDF, Crank-Nicolson, Gauss-Legendre) plug in without touching the
 //! model, the shared constraints or the solver. [`ImplicitEuler`] (hand-written fast
 //! derivatives) was the first scheme; [`CrankNicolson`], [`ExplicitRk2`], [`ExplicitRk4`]
-//! and [`GaussLegendre2`] (stage states as NLP variables) share the formulas of [`steps`]
-//! and take exact derivatives from the num-dual oracle.
+//! and [`GaussLegendre2`] / [`GaussLegendre3`] (stage states as NLP variables) share the
+//! formulas of [`steps`] and take exact derivatives from the num-dual oracle; the
+//! multistep schemes BDF4-6 and Adams-Moulton ([`LinearMultistep`]) reference the earlier
+//! nodes x_{k-q+1}..x_k in their defect on interval k.
 //!
 //! Rows are ordered stage by stage: first the initial-condition rows, then for each
 //! interval k = 0..N-1: the scheme's defect rows, the two front friction rows (R9), the two
@@ -24,13 +26,15 @@ mod dense;
 pub mod explicit_rk;
 pub mod gauss_legendre;
 pub mod implicit_euler;
+pub mod multistep;
 mod one_step;
 pub mod steps;
 
 pub use crank_nicolson::CrankNicolson;
 pub use explicit_rk::{ExplicitRk2, ExplicitRk4};
-pub use gauss_legendre::GaussLegendre2;
+pub use gauss_legendre::{GaussLegendre2, GaussLegendre3};
 pub use implicit_euler::ImplicitEuler;
+pub use multistep::{LinearMultistep, MultistepFamily};
 
 use super::layout::Layout;
 use super::path_constraints::*;

@@ -89,9 +89,11 @@ enum GuessArg {
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum BarrierArg {
     Monotone,
-    Dampmpc,
-    Fullmpc,
+    Adaptive,
+    Probing,
     Loqo,
+    Fullmpc,
+    Dampmpc,
 }
 
 #[derive(clap::Args, Debug)]
@@ -211,6 +213,8 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             BarrierArg::Dampmpc => BarrierRule::Dampmpc,
             BarrierArg::Fullmpc => BarrierRule::Fullmpc,
             BarrierArg::Loqo => BarrierRule::Loqo,
+            BarrierArg::Adaptive => BarrierRule::Adaptive,
+            BarrierArg::Probing => BarrierRule::Probing,
         };
     }
     let guess = match args.guess {

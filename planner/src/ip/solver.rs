@@ -154,6 +154,9 @@ impl<K: KktSolver> Solver<K> {
 
         let mut mu = match s.barrier {
             BarrierRule::Monotone => s.mu_init,
+            // The quality-function rule starts where the monotone rule does and never
+            // raises mu (see `direction`).
+            BarrierRule::Adaptive => s.mu_init,
             _ => {
                 let e = compute_errors(&mut self.ws, 0.0);
                 e.mu_avg.max(s.mu_min)
@@ -387,6 +390,7 @@ impl<K: KktSolver> Solver<K> {
             let (mu_step, kind) = self.direction(rule, mu, mu_max, fact.delta_w, &err);
             times.solve += ts.elapsed().as_secs_f64();
             mu = mu_step;
+            let mu_step_prev = mu;
             if mu != mu_prev {
                 // A new barrier problem: its filter starts empty.
                 self.ws.filter.clear();
@@ -437,6 +441,10 @@ impl<K: KktSolver> Solver<K> {
                             free_mode = false;
                             let e = compute_errors(&mut self.ws, mu);
                             mu = (0.8 * e.mu_avg).clamp(s.mu_min, mu_max);
+                            if s.barrier == BarrierRule::Adaptive {
+                                // The quality-function rule never raises mu (see `direction`).
+                                mu = mu.min(mu_step_prev);
+                            }
                         }
                     }
                     // Stalling while infeasible: hand over to restoration.
@@ -1101,14 +1109,14 @@ impl<K: KktSolver> Solver<K> {
                 let lo = (s.mu_min / mu_avg).clamp(1e-9, 1e-2);
                 let hi = (mu_max / mu_avg).clamp(1.0, 10.0);
                 let sigma = barrier::quality_sigma(&self.ws, lo, hi, tau, rd2, rp2);
-                let mut floor = self.mu_floor(mu, err);
                 // Curvature guard: while the Hessian needed a shift (negative curvature,
-                // far from a local minimizer) mu is not decreased, so the barrier keeps
-                // convexifying the subproblem instead of the regularization.
-                if delta_w > 0.0 {
-                    floor = floor.max(mu);
-                }
-                let mu_new = (sigma * mu_avg).max(floor).min(mu_max);
+                // far from a local minimizer) mu is kept, so the barrier, not the
+                // regularization, shapes the subproblem; otherwise it never rises.
+                let mu_new = if delta_w >= s.delta_w_init {
+                    mu
+                } else {
+                    (sigma * mu_avg).max(self.mu_floor(mu, err)).min(mu)
+                };
                 self.set_targets(mu_new, false);
                 self.solve_direction(delta_w, false);
                 (mu_new, StepKind::Newton)

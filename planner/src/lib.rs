@@ -16,5 +16,6 @@ pub mod ocp;
 pub mod plan;
 pub mod plot;
 pub mod record;
+pub mod study;
 pub mod track;
 pub mod trajectory;

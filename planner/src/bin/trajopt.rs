@@ -38,6 +38,63 @@ enum Command {
     Guess(GuessArgs),
     /// Run the planner and tracker processes (ipc crate) in closed loop and summarise.
     ClosedLoop(ClosedLoopArgs),
+    /// Robustness studies of the paper's Sec. VI (tables and figures).
+    #[command(subcommand)]
+    Study(StudyCommand),
+}
+
+#[derive(Subcommand, Debug)]
+enum StudyCommand {
+    /// Segments S01-S10 from the equilibrium and the zero guess (Tables II, III; Fig. 5).
+    Segments(StudySegmentsArgs),
+    /// The oval with each of the six barrier rules (Table IV).
+    Barrier(StudyBarrierArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct StudyCommon {
+    /// Vehicle file.
+    #[arg(long, default_value = "config/vehicles/lc500.toml")]
+    vehicle: PathBuf,
+    /// Solver settings file.
+    #[arg(long, default_value = "config/solver.toml")]
+    solver: PathBuf,
+    /// Solves per run; the median time is reported.
+    #[arg(long, default_value_t = 10)]
+    repeat: usize,
+    /// Print exactly one JSON object on stdout (tables go to stderr).
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+struct StudySegmentsArgs {
+    /// Multi-segment scenario file.
+    #[arg(long, default_value = "config/scenarios/segments.toml")]
+    scenario: PathBuf,
+    /// Barrier parameter rule (overrides the solver file).
+    #[arg(long, value_enum)]
+    barrier: Option<BarrierArg>,
+    /// Folder for the PNG figures.
+    #[arg(long, default_value = "out")]
+    out_dir: PathBuf,
+    /// Do not write the figures.
+    #[arg(long)]
+    no_output: bool,
+    #[command(flatten)]
+    common: StudyCommon,
+}
+
+#[derive(clap::Args, Debug)]
+struct StudyBarrierArgs {
+    /// Scenario file.
+    #[arg(long, default_value = "config/scenarios/oval.toml")]
+    scenario: PathBuf,
+    /// Segment or scenario name inside a multi-entry file.
+    #[arg(long)]
+    segment: Option<String>,
+    #[command(flatten)]
+    common: StudyCommon,
 }
 
 #[derive(clap::Args, Debug)]
@@ -94,6 +151,19 @@ enum BarrierArg {
     Loqo,
     Fullmpc,
     Dampmpc,
+}
+
+impl BarrierArg {
+    fn rule(self) -> BarrierRule {
+        match self {
+            BarrierArg::Monotone => BarrierRule::Monotone,
+            BarrierArg::Dampmpc => BarrierRule::Dampmpc,
+            BarrierArg::Fullmpc => BarrierRule::Fullmpc,
+            BarrierArg::Loqo => BarrierRule::Loqo,
+            BarrierArg::Adaptive => BarrierRule::Adaptive,
+            BarrierArg::Probing => BarrierRule::Probing,
+        }
+    }
 }
 
 #[derive(clap::Args, Debug)]
@@ -172,6 +242,8 @@ fn main() -> ExitCode {
         Command::Solve(args) => solve(args),
         Command::Guess(args) => guess(args),
         Command::ClosedLoop(args) => closed_loop(args),
+        Command::Study(StudyCommand::Segments(args)) => study_segments(args),
+        Command::Study(StudyCommand::Barrier(args)) => study_barrier(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -208,14 +280,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     }
     let mut settings = load_solver(&resolve(&args.solver)).map_err(|e| e.to_string())?;
     if let Some(b) = args.barrier {
-        settings.barrier = match b {
-            BarrierArg::Monotone => BarrierRule::Monotone,
-            BarrierArg::Dampmpc => BarrierRule::Dampmpc,
-            BarrierArg::Fullmpc => BarrierRule::Fullmpc,
-            BarrierArg::Loqo => BarrierRule::Loqo,
-            BarrierArg::Adaptive => BarrierRule::Adaptive,
-            BarrierArg::Probing => BarrierRule::Probing,
-        };
+        settings.barrier = b.rule();
     }
     let guess = match args.guess {
         GuessArg::Equilibrium => GuessKind::Equilibrium,
@@ -626,6 +691,80 @@ fn closed_loop(args: ClosedLoopArgs) -> Result<(), String> {
         println!("{obj}");
     } else {
         println!("{summary}");
+    }
+    Ok(())
+}
+
+/// `trajopt study segments`: runs [`planner::study::segments`], prints Tables II and III
+/// (stderr with `--json`), writes the convergence and path figures.
+fn study_segments(args: StudySegmentsArgs) -> Result<(), String> {
+    use planner::study::{figures, segments};
+    let c = &args.common;
+    let vehicle = load_vehicle(&resolve(&c.vehicle)).map_err(|e| e.to_string())?;
+    let mut settings = load_solver(&resolve(&c.solver)).map_err(|e| e.to_string())?;
+    if let Some(b) = args.barrier {
+        settings.barrier = b.rule();
+    }
+    let scenario = resolve(&args.scenario);
+    let study =
+        segments::run(&scenario, &vehicle, settings, c.repeat).map_err(|e| e.to_string())?;
+    let tables = format!(
+        "{}\n{}",
+        segments::table(&study, "equilibrium"),
+        segments::table(&study, "zero")
+    );
+    let mut figures_out = Vec::new();
+    if !args.no_output {
+        std::fs::create_dir_all(&args.out_dir)
+            .map_err(|e| format!("{}: {e}", args.out_dir.display()))?;
+        let conv = args.out_dir.join("segments_convergence.png");
+        figures::plot_convergence(&study, &conv).map_err(|e| e.to_string())?;
+        let paths = args.out_dir.join("segments_paths.png");
+        figures::plot_paths(&scenario, &study, &paths).map_err(|e| e.to_string())?;
+        figures_out.push(conv.display().to_string());
+        figures_out.push(paths.display().to_string());
+    }
+    if c.json {
+        eprint!("{tables}");
+        let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
+        v["figures"] = serde_json::json!(figures_out);
+        println!("{v}");
+    } else {
+        print!("{tables}");
+        for f in &figures_out {
+            println!("wrote {f}");
+        }
+    }
+    Ok(())
+}
+
+/// `trajopt study barrier`: runs [`planner::study::barrier`] and prints Table IV (stderr
+/// with `--json`).
+fn study_barrier(args: StudyBarrierArgs) -> Result<(), String> {
+    use planner::study::barrier;
+    let c = &args.common;
+    let vehicle = load_vehicle(&resolve(&c.vehicle)).map_err(|e| e.to_string())?;
+    let settings = load_solver(&resolve(&c.solver)).map_err(|e| e.to_string())?;
+    let runs = barrier::run(
+        &resolve(&args.scenario),
+        args.segment.as_deref(),
+        &vehicle,
+        settings,
+        c.repeat,
+    )
+    .map_err(|e| e.to_string())?;
+    let table = barrier::table(&runs, c.repeat, settings.max_refactorizations);
+    if c.json {
+        eprint!("{table}");
+        let v = serde_json::json!({
+            "scenario": args.scenario.display().to_string(),
+            "repeat": c.repeat,
+            "max_refactorizations": settings.max_refactorizations,
+            "runs": runs,
+        });
+        println!("{v}");
+    } else {
+        print!("{table}");
     }
     Ok(())
 }

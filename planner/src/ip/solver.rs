@@ -816,13 +816,14 @@ impl<K: KktSolver> Solver<K> {
             }
         }
         // The next iteration starts its corrections from the largest shift tried here.
-        self.delta_w_last = delta_w.min(s.delta_w_max);
-        self.factorize_fallback(delta_c, count)
+        let delta_w = delta_w.min(s.delta_w_max);
+        self.delta_w_last = delta_w;
+        self.factorize_fallback(delta_w, delta_c, count)
     }
 
     /// The bounded answer to bad inertia: factorize the KKT matrix with the Hessian
     /// convexified by a per-variable Gershgorin shift,
-    /// `D_j = max(0, sum_{k != j} |H_jk| - H_jj) + delta_w_init`,
+    /// `D_j = max(0, sum_{k != j} |H_jk| - H_jj) + delta` (delta: see below),
     /// so that H + D is diagonally dominant with a positive diagonal (hence positive
     /// definite, Gershgorin's circle theorem), and with a dual shift delta_c > 0. The
     /// matrix [[H + Sigma + D, J^T], [J, -D_c]] is then quasi-definite and has inertia
@@ -833,11 +834,21 @@ impl<K: KktSolver> Solver<K> {
     /// only; that is what KNITRO's projected-CG trust-region fallback achieves, at the cost
     /// of one factorization instead of a CG loop. Counted as a factorization of the
     /// iteration; returns `Err` only when the backend fails on a non-finite matrix.
-    fn factorize_fallback(&mut self, delta_c: f64, count: usize) -> Result<Factorization, usize> {
+    fn factorize_fallback(
+        &mut self,
+        delta_next: f64,
+        delta_c: f64,
+        count: usize,
+    ) -> Result<Factorization, usize> {
         let s = self.settings;
         let ws = &mut self.ws;
         let n = ws.n;
-        let delta = s.delta_w_init;
+        // The shift the correction loop would have tried next is kept on top of the
+        // Gershgorin shift: it acts as a trust-region radius ~ 1/delta that shrinks as the
+        // loop escalated, so the fallback step is no longer than a corrected Newton step
+        // would have been (an unshortened fallback step can leave the region where the
+        // linearized constraints are accurate).
+        let delta = delta_next.max(s.delta_w_init);
         // tmp_w[..n]: diagonal of H; primal_diag[..n]: off-diagonal absolute row sums.
         ws.tmp_w[..n].iter_mut().for_each(|v| *v = 0.0);
         ws.primal_diag.iter_mut().for_each(|v| *v = 0.0);

@@ -350,7 +350,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         eprintln!("iter  objective      inf_pr    inf_du    compl     mu        alpha     delta_w  nf bt step");
         for l in planner.solver().log() {
             eprintln!(
-                "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {:?}",
+                "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
                 l.iter,
                 l.objective,
                 l.inf_pr,
@@ -361,7 +361,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
                 l.delta_w,
                 l.factorizations,
                 l.backtracks,
-                l.step
+                l.step.name()
             );
         }
     }
@@ -397,7 +397,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
          t_final {tf:.4} s, max violation {mv:.2e} (initial {iv:.2e}), max |beta| {mb:.3} rad\n  \
          guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, tire saturation {sat}\n  \
          time: evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
-         {nf} factorizations (max {mf} per iteration)",
+         {nf} factorizations (max {mf} per iteration, cap {cap}), {fb} fallback steps",
         status = info.status.name(),
         it = info.iterations,
         rep = args.repeat,
@@ -415,6 +415,8 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         ls = info.times.line_search * 1e3,
         nf = info.factorizations,
         mf = info.max_factorizations_per_iter,
+        cap = settings.max_refactorizations,
+        fb = info.fallback_steps,
     );
     let files_txt: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     if args.json {
@@ -438,6 +440,8 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "compl": info.compl,
             "factorizations": info.factorizations,
             "max_factorizations_per_iter": info.max_factorizations_per_iter,
+            "max_refactorizations": settings.max_refactorizations,
+            "fallback_steps": info.fallback_steps,
             "evaluations": info.evaluations,
             "times_ms": {
                 "evaluation": info.times.evaluation * 1e3,

@@ -167,7 +167,10 @@ fn study_barrier_json_has_every_rule() {
         ] {
             assert!(r.get(key).is_some(), "missing {key} in {r}");
         }
-        assert!(r["max_factorizations_per_iter"].as_u64().unwrap() <= cap, "{r}");
+        assert!(
+            r["max_factorizations_per_iter"].as_u64().unwrap() <= cap,
+            "{r}"
+        );
         assert!(r["iterations"].as_u64().unwrap() <= 500, "{r}");
     }
     let monotone = runs.iter().find(|r| r["barrier"] == "monotone").unwrap();

@@ -52,7 +52,13 @@ pub fn residuals_sq(ws: &mut Workspace) -> (f64, f64) {
     let (n, m) = (ws.n, ws.m);
     ws.tmp_w.iter_mut().for_each(|v| *v = 0.0);
     ws.tmp_w[..n].copy_from_slice(&ws.grad);
-    super::residuals::jac_t_mul(&ws.jac_rows, &ws.jac_cols, &ws.jac, &ws.y, &mut ws.tmp_w[..n]);
+    super::residuals::jac_t_mul(
+        &ws.jac_rows,
+        &ws.jac_cols,
+        &ws.jac,
+        &ws.y,
+        &mut ws.tmp_w[..n],
+    );
     for i in 0..m {
         if !ws.is_eq[i] {
             ws.tmp_w[n + i] = -ws.y[i];
@@ -117,7 +123,7 @@ pub fn quality(ws: &Workspace, sigma: f64, tau: f64, rd2: f64, rp2: f64) -> f64 
 /// [`QUALITY_EVALS`] evaluations (deterministic, bounded); returns the best sigma seen.
 pub fn quality_sigma(ws: &Workspace, lo: f64, hi: f64, tau: f64, rd2: f64, rp2: f64) -> f64 {
     let (mut a, mut b) = (lo.ln(), hi.ln());
-    if !(a < b) {
+    if a.partial_cmp(&b) != Some(std::cmp::Ordering::Less) {
         return hi;
     }
     let g = 0.5 * (5f64.sqrt() - 1.0);

@@ -469,7 +469,7 @@ impl<K: KktSolver> Solver<K> {
                         f_ref = f64::INFINITY;
                         resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
                     }
-                            let kind = if fact.fallback {
+                    let kind = if fact.fallback {
                         StepKind::Fallback
                     } else if soc {
                         StepKind::SecondOrder

@@ -45,7 +45,7 @@ pub fn run(
     if repeat == 0 {
         return Err(StudyError::Repeat);
     }
-    let spec = load_scenario(scenario, select, vehicle.clone())?;
+    let spec = load_scenario(scenario, select, *vehicle)?;
     let mut planner = Planner::<{ super::segments::N }>::new(spec, settings)?;
     let mut out = Vec::with_capacity(BarrierRule::ALL.len());
     for rule in BarrierRule::ALL {

@@ -187,7 +187,10 @@ pub fn plot_paths(scenario: &Path, study: &SegmentsStudy, path: &Path) -> Result
         .draw()
         .map_err(draw_err)?;
     chart
-        .draw_series(LineSeries::new(lap, RGBColor(180, 180, 180).stroke_width(8)))
+        .draw_series(LineSeries::new(
+            lap,
+            RGBColor(180, 180, 180).stroke_width(8),
+        ))
         .map_err(draw_err)?;
     for (i, (name, pts)) in paths.into_iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();

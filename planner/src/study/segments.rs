@@ -94,7 +94,10 @@ pub fn load_reference(path: &Path) -> Result<Vec<(String, f64, usize)>, StudyErr
         if cols.len() < 3 {
             return Err(bad("expected segment,t_N,iterations,..."));
         }
-        let t: f64 = cols[1].trim().parse().map_err(|_| bad("t_N is not a number"))?;
+        let t: f64 = cols[1]
+            .trim()
+            .parse()
+            .map_err(|_| bad("t_N is not a number"))?;
         let it: usize = cols[2]
             .trim()
             .parse()
@@ -120,7 +123,7 @@ pub fn run(
     let reference = load_reference(&data_root_of(scenario).join(REFERENCE_CSV)).ok();
     let mut runs = Vec::with_capacity(2 * names.len());
     for name in &names {
-        let spec = load_scenario(scenario, Some(name), vehicle.clone())?;
+        let spec = load_scenario(scenario, Some(name), *vehicle)?;
         let mut planner = Planner::<N>::new(spec, settings)?;
         let refrow = reference
             .as_ref()
@@ -189,7 +192,17 @@ pub fn table(study: &SegmentsStudy, guess: &str) -> String {
     let _ = writeln!(
         s,
         "{:<4} {:<18} {:>5} {:>9} {:>9} {:>9} {:>8} {:>7} {:>6} {:>6} {:>6}",
-        "seg", "status", "iter", "ms", "t_N [s]", "ref [s]", "err %", "ref it", "max nf", "fallbk", "resto"
+        "seg",
+        "status",
+        "iter",
+        "ms",
+        "t_N [s]",
+        "ref [s]",
+        "err %",
+        "ref it",
+        "max nf",
+        "fallbk",
+        "resto"
     );
     for r in study.runs.iter().filter(|r| r.guess == guess) {
         let opt = |v: Option<f64>, scale: f64, prec: usize| {

@@ -46,6 +46,7 @@ pub fn plot_convergence(study: &SegmentsStudy, path: &Path) -> Result<(), StudyE
             .configure_mesh()
             .x_desc("iteration")
             .y_desc("max(inf_pr, inf_du, compl)")
+            .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(draw_err)?;
         for (i, r) in runs.iter().enumerate() {
@@ -64,6 +65,7 @@ pub fn plot_convergence(study: &SegmentsStudy, path: &Path) -> Result<(), StudyE
         }
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()

@@ -1,6 +1,7 @@
 //! Whole solves from the equilibrium guess: the oval (paper Table I row implicit Euler /
 //! Fig. 4b), with the per-phase split printed once, for the fast derivative path and the
-//! num-dual oracle.
+//! num-dual oracle; and each race segment S01-S10 (paper Table II, issue #7: each under
+//! 20 ms median), one criterion group per segment.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use planner::guess::GuessKind;
@@ -40,5 +41,20 @@ fn report(name: &str, p: &mut planner::plan::Planner<100>) {
     );
 }
 
-criterion_group!(benches, oval);
+/// The ten race segments of `segments.toml`, one group per segment (`segment_S01/...`).
+fn segments(c: &mut Criterion) {
+    for k in 1..=10 {
+        let name = format!("S{k:02}");
+        let mut p = bench::planner_for("segments.toml", Some(&name));
+        report(&name, &mut p);
+        let mut g = c.benchmark_group(format!("segment_{name}"));
+        g.sample_size(10);
+        g.bench_function("equilibrium", |b| {
+            b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, oval, segments);
 criterion_main!(benches);

@@ -100,6 +100,8 @@ fn barrier_index(b: BarrierRule) -> f64 {
         BarrierRule::Fullmpc => 1.0,
         BarrierRule::Dampmpc => 2.0,
         BarrierRule::Loqo => 3.0,
+        BarrierRule::Adaptive => 4.0,
+        BarrierRule::Probing => 5.0,
     }
 }
 
@@ -142,6 +144,7 @@ pub fn settings_to_array(s: &Settings) -> [f64; SETTINGS_LEN] {
         s.mu_superlinear_power,
         s.barrier_tol_factor,
         s.delta_w_decrease,
+        s.max_refactorizations as f64,
         match s.kkt {
             KktBackendKind::Auto => 0.0,
             KktBackendKind::Sparse => 1.0,
@@ -162,17 +165,19 @@ fn int_field(v: &[f64; SETTINGS_LEN], i: usize, max: usize) -> Result<usize, (us
 
 /// The settings from the recorded array; errors give the index of the bad entry.
 fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, String)> {
-    let barrier = match int_field(v, 12, 3)? {
+    let barrier = match int_field(v, 12, 5)? {
         0 => BarrierRule::Monotone,
         1 => BarrierRule::Fullmpc,
         2 => BarrierRule::Dampmpc,
-        _ => BarrierRule::Loqo,
+        3 => BarrierRule::Loqo,
+        4 => BarrierRule::Adaptive,
+        _ => BarrierRule::Probing,
     };
     let globalization = match int_field(v, 13, 1)? {
         0 => Globalization::Filter,
         _ => Globalization::Merit,
     };
-    let kkt = match int_field(v, 33, 2)? {
+    let kkt = match int_field(v, 34, 2)? {
         0 => KktBackendKind::Auto,
         1 => KktBackendKind::Sparse,
         _ => KktBackendKind::Riccati,
@@ -211,6 +216,7 @@ fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, Stri
         mu_superlinear_power: v[30],
         barrier_tol_factor: v[31],
         delta_w_decrease: v[32],
+        max_refactorizations: int_field(v, 33, 1_000_000)?,
         kkt,
     })
 }

@@ -241,3 +241,58 @@ fn study_stiffness_json_names_the_peak_and_its_state() {
     );
     let _ = std::fs::remove_dir_all(&out_dir);
 }
+
+#[test]
+fn study_barrier_json_has_every_rule() {
+    let out = trajopt()
+        .args(["study", "barrier", "--repeat", "1", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    let cap = v["max_refactorizations"].as_u64().expect("cap");
+    assert_eq!(v["repeat"], 1);
+    let runs = v["runs"].as_array().expect("runs");
+    let mut names: Vec<&str> = runs.iter().filter_map(|r| r["barrier"].as_str()).collect();
+    names.sort_unstable();
+    assert_eq!(
+        names,
+        ["adaptive", "dampmpc", "fullmpc", "loqo", "monotone", "probing"]
+    );
+    for r in runs {
+        for key in [
+            "status",
+            "iterations",
+            "median_ms",
+            "t_final",
+            "max_violation",
+            "max_factorizations_per_iter",
+            "fallback_steps",
+        ] {
+            assert!(r.get(key).is_some(), "missing {key} in {r}");
+        }
+        assert!(
+            r["max_factorizations_per_iter"].as_u64().unwrap() <= cap,
+            "{r}"
+        );
+        assert!(r["iterations"].as_u64().unwrap() <= 500, "{r}");
+    }
+    let monotone = runs.iter().find(|r| r["barrier"] == "monotone").unwrap();
+    assert_eq!(monotone["status"], "optimal");
+    // The human table went to stderr.
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Table IV"));
+}
+
+#[test]
+fn study_rejects_zero_repeat() {
+    let out = trajopt()
+        .args(["study", "barrier", "--repeat", "0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}

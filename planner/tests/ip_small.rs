@@ -330,3 +330,219 @@ fn nan_start_is_invalid_input() {
     let (info, _) = solve(&mut p, BarrierRule::Dampmpc);
     assert_eq!(info.status, Status::InvalidInput);
 }
+
+/// min x0^2 + x1^2 s.t. x0 + x1 >= 0 and x0 - x1 >= 0: both constraints active at the
+/// optimum (0, 0) with zero multipliers (strict complementarity fails: degenerate).
+fn degenerate_complementarity() -> Dense {
+    Dense {
+        n: 2,
+        m: 2,
+        x0: vec![1.0, 0.5],
+        x_l: vec![-INF; 2],
+        x_u: vec![INF; 2],
+        g_l: vec![0.0, 0.0],
+        g_u: vec![INF, INF],
+        f: |x| x[0] * x[0] + x[1] * x[1],
+        grad: |x, g| {
+            g[0] = 2.0 * x[0];
+            g[1] = 2.0 * x[1];
+        },
+        g: |x, g| {
+            g[0] = x[0] + x[1];
+            g[1] = x[0] - x[1];
+        },
+        jac: |_, v| {
+            v[0] = 1.0;
+            v[1] = 1.0;
+            v[2] = 1.0;
+            v[3] = -1.0;
+        },
+        hess: |_, s, _, v| {
+            v[0] = 2.0 * s;
+            v[1] = 0.0;
+            v[2] = 2.0 * s;
+        },
+    }
+}
+
+/// min (x0 - 2)^2 + (x1 - 1)^2 s.t. x0 + x1 = 1 stated twice (LICQ fails: the Jacobian is
+/// rank deficient, the multipliers are not unique). Optimum (1, 0).
+fn redundant_equalities() -> Dense {
+    Dense {
+        n: 2,
+        m: 2,
+        x0: vec![0.0, 0.0],
+        x_l: vec![-INF; 2],
+        x_u: vec![INF; 2],
+        g_l: vec![1.0, 2.0],
+        g_u: vec![1.0, 2.0],
+        f: |x| (x[0] - 2.0).powi(2) + (x[1] - 1.0).powi(2),
+        grad: |x, g| {
+            g[0] = 2.0 * (x[0] - 2.0);
+            g[1] = 2.0 * (x[1] - 1.0);
+        },
+        g: |x, g| {
+            g[0] = x[0] + x[1];
+            g[1] = 2.0 * (x[0] + x[1]);
+        },
+        jac: |_, v| {
+            v[0] = 1.0;
+            v[1] = 1.0;
+            v[2] = 2.0;
+            v[3] = 2.0;
+        },
+        hess: |_, s, _, v| {
+            v[0] = 2.0 * s;
+            v[1] = 0.0;
+            v[2] = 2.0 * s;
+        },
+    }
+}
+
+/// Rosenbrock's banana in the box [-2, 2] x [-1, 3] from (-1.2, 1): the Hessian is
+/// indefinite at the start (nonconvex); optimum (1, 1), f = 0.
+fn rosenbrock() -> Dense {
+    Dense {
+        n: 2,
+        m: 0,
+        x0: vec![-1.2, 1.0],
+        x_l: vec![-2.0, -1.0],
+        x_u: vec![2.0, 3.0],
+        g_l: vec![],
+        g_u: vec![],
+        f: |x| (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2),
+        grad: |x, g| {
+            g[0] = -2.0 * (1.0 - x[0]) - 400.0 * x[0] * (x[1] - x[0] * x[0]);
+            g[1] = 200.0 * (x[1] - x[0] * x[0]);
+        },
+        g: |_, _| {},
+        jac: |_, _| {},
+        hess: |x, s, _, v| {
+            v[0] = s * (2.0 - 400.0 * (x[1] - 3.0 * x[0] * x[0]));
+            v[1] = s * (-400.0 * x[0]);
+            v[2] = s * 200.0;
+        },
+    }
+}
+
+#[test]
+fn every_rule_solves_degenerate_problems() {
+    for rule in BarrierRule::ALL {
+        let (info, x) = solve(&mut degenerate_complementarity(), rule);
+        assert_eq!(info.status, Status::Optimal, "{rule:?} degenerate {info:?}");
+        assert!(x[0].abs() < 1e-3 && x[1].abs() < 1e-3, "{rule:?} x = {x:?}");
+        let (info, x) = solve(&mut redundant_equalities(), rule);
+        assert_eq!(info.status, Status::Optimal, "{rule:?} redundant {info:?}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-5 && x[1].abs() < 1e-5,
+            "{rule:?} x = {x:?}"
+        );
+    }
+}
+
+#[test]
+fn every_rule_solves_nonconvex_problems() {
+    for rule in BarrierRule::ALL {
+        let (info, x) = solve(&mut rosenbrock(), rule);
+        assert_eq!(info.status, Status::Optimal, "{rule:?} rosenbrock {info:?}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-4 && (x[1] - 1.0).abs() < 1e-4,
+            "{rule:?} x = {x:?}"
+        );
+        let mut q = Dense {
+            n: 2,
+            m: 1,
+            x0: vec![0.0, 0.5],
+            x_l: vec![-INF; 2],
+            x_u: vec![INF; 2],
+            g_l: vec![2.0],
+            g_u: vec![2.0],
+            f: |x| -x[0] * x[1],
+            grad: |x, g| {
+                g[0] = -x[1];
+                g[1] = -x[0];
+            },
+            g: |x, g| g[0] = x[0] + x[1],
+            jac: |_, v| {
+                v[0] = 1.0;
+                v[1] = 1.0;
+            },
+            hess: |_, s, _, v| {
+                v[0] = 0.0;
+                v[1] = -s;
+                v[2] = 0.0;
+            },
+        };
+        let (info, x) = solve(&mut q, rule);
+        assert_eq!(info.status, Status::Optimal, "{rule:?} saddle {info:?}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-6 && (x[1] - 1.0).abs() < 1e-6,
+            "{rule:?} x = {x:?}"
+        );
+    }
+}
+
+/// The refactorization cap: with room for a single inertia-correcting attempt, an
+/// iteration whose Hessian is indefinite must take the convexified fallback step, never
+/// factorize more often than the cap, and still converge.
+#[test]
+fn inertia_fallback_is_taken_at_the_cap_and_converges() {
+    use planner::ip::StepKind;
+    for rule in BarrierRule::ALL {
+        // Double well in a free x0: H = 3 x0^2 - 1 < 0 at the start whatever mu is (no
+        // barrier term on x0); minimizers x0 = +-1, x1 = 0, f = -1/4.
+        let mut p = Dense {
+            n: 2,
+            m: 0,
+            x0: vec![0.1, 1.0],
+            x_l: vec![-INF, -5.0],
+            x_u: vec![INF, 5.0],
+            g_l: vec![],
+            g_u: vec![],
+            f: |x| 0.25 * x[0].powi(4) - 0.5 * x[0] * x[0] + x[1] * x[1],
+            grad: |x, g| {
+                g[0] = x[0].powi(3) - x[0];
+                g[1] = 2.0 * x[1];
+            },
+            g: |_, _| {},
+            jac: |_, _| {},
+            hess: |x, s, _, v| {
+                v[0] = s * (3.0 * x[0] * x[0] - 1.0);
+                v[1] = 0.0;
+                v[2] = 2.0 * s;
+            },
+        };
+        let settings = Settings {
+            barrier: rule,
+            max_refactorizations: 2,
+            ..Settings::default()
+        };
+        let mut solver = Solver::new(&p, settings).expect("setup");
+        let info = solver.solve(&mut p);
+        let log = solver.log();
+        assert!(
+            log.iter().any(|l| l.step == StepKind::Fallback),
+            "{rule:?}: no fallback step in {log:?}"
+        );
+        assert!(info.fallback_steps > 0);
+        assert!(log.iter().all(|l| l.factorizations <= 2), "{rule:?}");
+        assert!(info.max_factorizations_per_iter <= 2, "{rule:?} {info:?}");
+        assert_eq!(info.status, Status::Optimal, "{rule:?} {info:?}");
+        let x = solver.x();
+        assert!(
+            (x[0].abs() - 1.0).abs() < 1e-5 && x[1].abs() < 1e-5,
+            "{rule:?} x = {x:?}"
+        );
+        assert!((info.objective + 0.25).abs() < 1e-8, "{rule:?} {info:?}");
+    }
+}
+
+#[test]
+fn refactorization_cap_below_two_is_rejected() {
+    let p = hs071();
+    let settings = Settings {
+        max_refactorizations: 1,
+        ..Settings::default()
+    };
+    assert!(Solver::new(&p, settings).is_err());
+}

@@ -57,7 +57,12 @@ fn ten_segments_optimal_and_match_reference() {
         );
         assert!(info.max_violation < 1e-6, "{name}: {}", info.max_violation);
         // No iteration exceeds the refactorization cap (issue 7's bounded inertia handling).
-        assert!(info.max_factorizations_per_iter <= p.solver().settings().max_inertia_corrections);
+        let cap = p.solver().settings().max_refactorizations;
+        assert!(info.max_factorizations_per_iter <= cap, "{name}: {info:?}");
+        assert!(
+            p.solver().log().iter().all(|l| l.factorizations <= cap),
+            "{name}: an iteration exceeds the cap of {cap}"
+        );
     }
 }
 

@@ -1,10 +1,12 @@
-//! The study library: NRMSE definition, eigen-analysis of eq. (7) with participation
-//! factors on matrices with known answers, and the stiffness of the model at a real state.
+//! The study library: the median and the shipped segment reference table, the NRMSE
+//! definition, eigen-analysis of eq. (7) with participation factors on matrices with known
+//! answers, and the stiffness of the model at a real state.
 
 use planner::model::params::lc500;
 use planner::model::{NX, STATE_NAMES};
 use planner::study::integrators::{nrmse_pct, Integrator};
 use planner::study::stiffness::{analyze, analyze_jacobian, spatial_jacobian};
+use planner::study::{median, segments};
 
 #[test]
 fn nrmse_is_rms_error_over_reference_range() {
@@ -121,4 +123,31 @@ fn model_jacobian_and_analysis_at_a_cornering_state() {
     assert!(study.peak_dominant_state.is_some());
     // Length mismatch is an error, not a panic.
     assert!(analyze(&p, &[x], &[u], &[kappa], 2.6).is_err());
+}
+
+#[test]
+fn median_of_odd_and_even_counts() {
+    assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+    assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
+    assert!(median(&mut []).is_nan());
+}
+
+#[test]
+fn shipped_reference_lists_ten_segments() {
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"))
+        .join(segments::REFERENCE_CSV);
+    let rows = segments::load_reference(&path).expect("shipped reference loads");
+    assert_eq!(rows.len(), 10);
+    assert_eq!(rows[0].0, "S01");
+    assert!((rows[0].1 - 9.2046).abs() < 1e-9);
+    assert!(rows.iter().all(|(_, t, it)| *t > 1.0 && *it > 0));
+}
+
+#[test]
+fn malformed_reference_is_a_typed_error() {
+    let path = std::env::temp_dir().join(format!("bad-ref-{}.csv", std::process::id()));
+    std::fs::write(&path, "segment,t_N,iterations,status\nS01,abc,3,x\n").unwrap();
+    let err = segments::load_reference(&path).unwrap_err();
+    assert!(err.to_string().contains("line 2"), "{err}");
+    let _ = std::fs::remove_file(&path);
 }

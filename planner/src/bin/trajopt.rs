@@ -39,14 +39,9 @@ enum Command {
     Guess(GuessArgs),
     /// Run the planner and tracker processes (ipc crate) in closed loop and summarise.
     ClosedLoop(ClosedLoopArgs),
-    /// Reproduce a study of the paper (table + PNG; `--json` for one JSON object).
-    Study(StudyArgs),
-}
-
-#[derive(clap::Args, Debug)]
-struct StudyArgs {
+    /// Reproduce a study of the paper (tables + PNG; `--json` for one JSON object).
     #[command(subcommand)]
-    which: StudyCommand,
+    Study(StudyCommand),
 }
 
 #[derive(Subcommand, Debug)]
@@ -55,6 +50,10 @@ enum StudyCommand {
     Integrators(IntegratorsArgs),
     /// Stiffness ratio and participation factors along the optimal oval (paper Fig. 3).
     Stiffness(StiffnessArgs),
+    /// Segments S01-S10 from the equilibrium and the zero guess (Tables II, III; Fig. 5).
+    Segments(StudySegmentsArgs),
+    /// The oval with each of the six barrier rules (Table IV).
+    Barrier(StudyBarrierArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -74,6 +73,22 @@ struct StudyFiles {
     /// Folder for the PNG.
     #[arg(long, default_value = "out")]
     out_dir: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct StudyCommon {
+    /// Vehicle file.
+    #[arg(long, default_value = "config/vehicles/lc500.toml")]
+    vehicle: PathBuf,
+    /// Solver settings file.
+    #[arg(long, default_value = "config/solver.toml")]
+    solver: PathBuf,
+    /// Solves per run; the median time is reported.
+    #[arg(long, default_value_t = 10)]
+    repeat: usize,
+    /// Print exactly one JSON object on stdout (tables go to stderr).
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -99,6 +114,36 @@ struct IntegratorsArgs {
 struct StiffnessArgs {
     #[command(flatten)]
     files: StudyFiles,
+}
+
+#[derive(clap::Args, Debug)]
+struct StudySegmentsArgs {
+    /// Multi-segment scenario file.
+    #[arg(long, default_value = "config/scenarios/segments.toml")]
+    scenario: PathBuf,
+    /// Barrier parameter rule (overrides the solver file).
+    #[arg(long, value_enum)]
+    barrier: Option<BarrierArg>,
+    /// Folder for the PNG figures.
+    #[arg(long, default_value = "out")]
+    out_dir: PathBuf,
+    /// Do not write the figures.
+    #[arg(long)]
+    no_output: bool,
+    #[command(flatten)]
+    common: StudyCommon,
+}
+
+#[derive(clap::Args, Debug)]
+struct StudyBarrierArgs {
+    /// Scenario file.
+    #[arg(long, default_value = "config/scenarios/oval.toml")]
+    scenario: PathBuf,
+    /// Segment or scenario name inside a multi-entry file.
+    #[arg(long)]
+    segment: Option<String>,
+    #[command(flatten)]
+    common: StudyCommon,
 }
 
 #[derive(clap::Args, Debug)]
@@ -150,9 +195,24 @@ enum GuessArg {
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum BarrierArg {
     Monotone,
-    Dampmpc,
-    Fullmpc,
+    Adaptive,
+    Probing,
     Loqo,
+    Fullmpc,
+    Dampmpc,
+}
+
+impl BarrierArg {
+    fn rule(self) -> BarrierRule {
+        match self {
+            BarrierArg::Monotone => BarrierRule::Monotone,
+            BarrierArg::Dampmpc => BarrierRule::Dampmpc,
+            BarrierArg::Fullmpc => BarrierRule::Fullmpc,
+            BarrierArg::Loqo => BarrierRule::Loqo,
+            BarrierArg::Adaptive => BarrierRule::Adaptive,
+            BarrierArg::Probing => BarrierRule::Probing,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -241,10 +301,10 @@ fn main() -> ExitCode {
         Command::Solve(args) => solve(args),
         Command::Guess(args) => guess(args),
         Command::ClosedLoop(args) => closed_loop(args),
-        Command::Study(args) => match args.which {
-            StudyCommand::Integrators(a) => study_integrators(a),
-            StudyCommand::Stiffness(a) => study_stiffness(a),
-        },
+        Command::Study(StudyCommand::Integrators(a)) => study_integrators(a),
+        Command::Study(StudyCommand::Stiffness(a)) => study_stiffness(a),
+        Command::Study(StudyCommand::Segments(args)) => study_segments(args),
+        Command::Study(StudyCommand::Barrier(args)) => study_barrier(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -288,12 +348,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         };
     }
     if let Some(b) = args.barrier {
-        settings.barrier = match b {
-            BarrierArg::Monotone => BarrierRule::Monotone,
-            BarrierArg::Dampmpc => BarrierRule::Dampmpc,
-            BarrierArg::Fullmpc => BarrierRule::Fullmpc,
-            BarrierArg::Loqo => BarrierRule::Loqo,
-        };
+        settings.barrier = b.rule();
     }
     let guess = match args.guess {
         GuessArg::Equilibrium => GuessKind::Equilibrium,
@@ -363,7 +418,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         eprintln!("iter  objective      inf_pr    inf_du    compl     mu        alpha     delta_w  nf bt step");
         for l in planner.solver().log() {
             eprintln!(
-                "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {:?}",
+                "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
                 l.iter,
                 l.objective,
                 l.inf_pr,
@@ -374,7 +429,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
                 l.delta_w,
                 l.factorizations,
                 l.backtracks,
-                l.step
+                l.step.name()
             );
         }
     }
@@ -411,7 +466,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
          guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, kkt {kkt}, \
          tire saturation {sat}\n  \
          time: evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
-         {nf} factorizations (max {mf} per iteration)",
+         {nf} factorizations (max {mf} per iteration, cap {cap}), {fb} fallback steps",
         status = info.status.name(),
         it = info.iterations,
         rep = args.repeat,
@@ -430,6 +485,8 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         ls = info.times.line_search * 1e3,
         nf = info.factorizations,
         mf = info.max_factorizations_per_iter,
+        cap = settings.max_refactorizations,
+        fb = info.fallback_steps,
     );
     let files_txt: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     if args.json {
@@ -454,6 +511,8 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "compl": info.compl,
             "factorizations": info.factorizations,
             "max_factorizations_per_iter": info.max_factorizations_per_iter,
+            "max_refactorizations": settings.max_refactorizations,
+            "fallback_steps": info.fallback_steps,
             "evaluations": info.evaluations,
             "times_ms": {
                 "evaluation": info.times.evaluation * 1e3,
@@ -864,6 +923,80 @@ fn closed_loop(args: ClosedLoopArgs) -> Result<(), String> {
         println!("{obj}");
     } else {
         println!("{summary}");
+    }
+    Ok(())
+}
+
+/// `trajopt study segments`: runs [`planner::study::segments`], prints Tables II and III
+/// (stderr with `--json`), writes the convergence and path figures.
+fn study_segments(args: StudySegmentsArgs) -> Result<(), String> {
+    use planner::study::{segment_figures, segments};
+    let c = &args.common;
+    let vehicle = load_vehicle(&resolve(&c.vehicle)).map_err(|e| e.to_string())?;
+    let mut settings = load_solver(&resolve(&c.solver)).map_err(|e| e.to_string())?;
+    if let Some(b) = args.barrier {
+        settings.barrier = b.rule();
+    }
+    let scenario = resolve(&args.scenario);
+    let study =
+        segments::run(&scenario, &vehicle, settings, c.repeat).map_err(|e| e.to_string())?;
+    let tables = format!(
+        "{}\n{}",
+        segments::table(&study, "equilibrium"),
+        segments::table(&study, "zero")
+    );
+    let mut figures_out = Vec::new();
+    if !args.no_output {
+        std::fs::create_dir_all(&args.out_dir)
+            .map_err(|e| format!("{}: {e}", args.out_dir.display()))?;
+        let conv = args.out_dir.join("segments_convergence.png");
+        segment_figures::plot_convergence(&study, &conv).map_err(|e| e.to_string())?;
+        let paths = args.out_dir.join("segments_paths.png");
+        segment_figures::plot_paths(&scenario, &study, &paths).map_err(|e| e.to_string())?;
+        figures_out.push(conv.display().to_string());
+        figures_out.push(paths.display().to_string());
+    }
+    if c.json {
+        eprint!("{tables}");
+        let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
+        v["figures"] = serde_json::json!(figures_out);
+        println!("{v}");
+    } else {
+        print!("{tables}");
+        for f in &figures_out {
+            println!("wrote {f}");
+        }
+    }
+    Ok(())
+}
+
+/// `trajopt study barrier`: runs [`planner::study::barrier`] and prints Table IV (stderr
+/// with `--json`).
+fn study_barrier(args: StudyBarrierArgs) -> Result<(), String> {
+    use planner::study::barrier;
+    let c = &args.common;
+    let vehicle = load_vehicle(&resolve(&c.vehicle)).map_err(|e| e.to_string())?;
+    let settings = load_solver(&resolve(&c.solver)).map_err(|e| e.to_string())?;
+    let runs = barrier::run(
+        &resolve(&args.scenario),
+        args.segment.as_deref(),
+        &vehicle,
+        settings,
+        c.repeat,
+    )
+    .map_err(|e| e.to_string())?;
+    let table = barrier::table(&runs, c.repeat, settings.max_refactorizations);
+    if c.json {
+        eprint!("{table}");
+        let v = serde_json::json!({
+            "scenario": args.scenario.display().to_string(),
+            "repeat": c.repeat,
+            "max_refactorizations": settings.max_refactorizations,
+            "runs": runs,
+        });
+        println!("{v}");
+    } else {
+        print!("{table}");
     }
     Ok(())
 }

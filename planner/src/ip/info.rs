@@ -56,6 +56,23 @@ pub enum StepKind {
     Rejected,
     /// Feasibility restoration (Gauss-Newton on the constraint violation).
     Restoration,
+    /// The refactorization cap was reached without the right inertia: the step of the
+    /// convexified (Gershgorin-shifted, quasi-definite) KKT system was taken instead.
+    Fallback,
+}
+
+impl StepKind {
+    /// The snake_case name used in JSON and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            StepKind::Newton => "newton",
+            StepKind::Corrected => "corrected",
+            StepKind::SecondOrder => "second_order",
+            StepKind::Rejected => "rejected",
+            StepKind::Restoration => "restoration",
+            StepKind::Fallback => "fallback",
+        }
+    }
 }
 
 /// One row of the iteration log.
@@ -77,7 +94,8 @@ pub struct IterLog {
     pub alpha: f64,
     /// Primal regularization delta_w (0 when the inertia was right).
     pub delta_w: f64,
-    /// Factorizations this iteration.
+    /// Factorizations (refactorizations included) this iteration; never above
+    /// `Settings::max_refactorizations`.
     pub factorizations: usize,
     /// Backtracking steps this iteration.
     pub backtracks: usize,
@@ -121,8 +139,11 @@ pub struct SolveInfo {
     pub mu: f64,
     /// Total KKT factorizations.
     pub factorizations: usize,
-    /// Largest number of factorizations in one iteration.
+    /// Largest number of factorizations in one iteration (bounded by
+    /// `Settings::max_refactorizations`).
     pub max_factorizations_per_iter: usize,
+    /// Iterations that took the convexified fallback step ([`StepKind::Fallback`]).
+    pub fallback_steps: usize,
     /// Function evaluations (f and g).
     pub evaluations: usize,
     /// Time per phase.

@@ -19,6 +19,13 @@ pub enum BarrierRule {
     Dampmpc,
     /// LOQO rule: mu from the spread of the complementarity products (Vanderbei-Shanno).
     Loqo,
+    /// Quality-function oracle: mu = sigma * average complementarity, with sigma minimizing
+    /// a merit of the linearized KKT residuals after the step d_aff + sigma d_cen (golden
+    /// section, capped evaluations; Nocedal, Waechter, Waltz 2009, Sec. 4).
+    Adaptive,
+    /// Mehrotra probing: an affine-scaling probe gives mu = (mu_aff / mu_avg)^3 mu_avg, then
+    /// a plain Newton step with that mu, no corrector (Byrd, Nocedal, Waltz 2006, KNITRO).
+    Probing,
 }
 
 impl BarrierRule {
@@ -29,26 +36,32 @@ impl BarrierRule {
             BarrierRule::Fullmpc => "fullmpc",
             BarrierRule::Dampmpc => "dampmpc",
             BarrierRule::Loqo => "loqo",
+            BarrierRule::Adaptive => "adaptive",
+            BarrierRule::Probing => "probing",
         }
     }
 
-    /// Parses a rule name (`monotone`, `fullmpc`, `dampmpc`, `loqo`).
+    /// Parses a rule name (`monotone`, `adaptive`, `probing`, `loqo`, `fullmpc`, `dampmpc`).
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "monotone" => Some(BarrierRule::Monotone),
             "fullmpc" => Some(BarrierRule::Fullmpc),
             "dampmpc" => Some(BarrierRule::Dampmpc),
             "loqo" => Some(BarrierRule::Loqo),
+            "adaptive" => Some(BarrierRule::Adaptive),
+            "probing" => Some(BarrierRule::Probing),
             _ => None,
         }
     }
 
-    /// All implemented rules.
-    pub const ALL: [BarrierRule; 4] = [
+    /// All implemented rules (the order of the paper's Table IV, then ours).
+    pub const ALL: [BarrierRule; 6] = [
         BarrierRule::Dampmpc,
         BarrierRule::Fullmpc,
         BarrierRule::Loqo,
         BarrierRule::Monotone,
+        BarrierRule::Adaptive,
+        BarrierRule::Probing,
     ];
 }
 
@@ -87,6 +100,11 @@ pub struct Settings {
     pub max_backtracks: usize,
     /// Cap on factorizations per iteration while correcting inertia.
     pub max_inertia_corrections: usize,
+    /// Cap on KKT factorizations in one iteration, the convexified fallback included: after
+    /// `max_refactorizations - 1` inertia-correcting attempts the iteration takes the
+    /// fallback step, whose matrix has the right inertia by construction (see
+    /// `Solver::factorize_with`). Bounds the work per iteration (paper Sec. VI-B).
+    pub max_refactorizations: usize,
     /// Cap on consecutive failed line searches before giving up.
     pub max_ls_failures: usize,
     /// Cap on feasibility-restoration iterations per solve.
@@ -153,6 +171,7 @@ impl Default for Settings {
             max_time_s: 10.0,
             max_backtracks: 30,
             max_inertia_corrections: 12,
+            max_refactorizations: 6,
             max_ls_failures: 6,
             max_restoration_steps: 200,
             barrier: BarrierRule::Monotone,
@@ -269,6 +288,7 @@ impl Settings {
             ("max_iter", self.max_iter),
             ("max_backtracks", self.max_backtracks),
             ("max_inertia_corrections", self.max_inertia_corrections),
+            ("max_refactorizations", self.max_refactorizations),
             ("max_ls_failures", self.max_ls_failures),
             ("max_restoration_steps", self.max_restoration_steps),
         ];
@@ -280,6 +300,13 @@ impl Settings {
                     expected: "must be an integer in 1..=1000000",
                 });
             }
+        }
+        if self.max_refactorizations < 2 {
+            return Err(SettingsError {
+                field: "max_refactorizations",
+                value: self.max_refactorizations.to_string(),
+                expected: "must be at least 2 (one Newton attempt plus the fallback)",
+            });
         }
         Ok(())
     }

@@ -36,8 +36,12 @@ pub struct Solver<K: KktSolver = KktBackend> {
 
 /// Outcome of factorizing with inertia correction.
 struct Factorization {
+    /// Scalar primal shift in the factorized matrix (for the slack elimination).
     delta_w: f64,
+    /// Factorizations spent (at most `Settings::max_refactorizations`).
     count: usize,
+    /// The convexified fallback matrix was factorized (see [`Solver::factorize_with`]).
+    fallback: bool,
 }
 
 impl Solver<KktBackend> {
@@ -141,6 +145,7 @@ impl<K: KktSolver> Solver<K> {
             mu: f64::NAN,
             factorizations: 0,
             max_factorizations_per_iter: 0,
+            fallback_steps: 0,
             evaluations: 0,
             times,
         };
@@ -166,6 +171,9 @@ impl<K: KktSolver> Solver<K> {
 
         let mut mu = match s.barrier {
             BarrierRule::Monotone => s.mu_init,
+            // The quality-function rule starts where the monotone rule does and never
+            // raises mu (see `direction`).
+            BarrierRule::Adaptive => s.mu_init,
             _ => {
                 let e = compute_errors(&mut self.ws, 0.0);
                 e.mu_avg.max(s.mu_min)
@@ -277,11 +285,18 @@ impl<K: KktSolver> Solver<K> {
                     resto_steps += 1;
                     let mut teval = 0.0;
                     let tf = Instant::now();
-                    let step = self.restoration_step(nlp, mu_r, &mut teval, &mut info.evaluations);
+                    let mut nfact = 0;
+                    let step = self.restoration_step(
+                        nlp,
+                        mu_r,
+                        &mut nfact,
+                        &mut teval,
+                        &mut info.evaluations,
+                    );
                     times.evaluation += teval;
                     times.factorization += tf.elapsed().as_secs_f64() - teval;
-                    info.factorizations += 1;
-                    info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(1);
+                    info.factorizations += nfact;
+                    info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(nfact);
                     let Some((alpha, backtracks)) = step else {
                         status = if significant && stat <= 1e-3 * err.inf_pr {
                             Status::LocallyInfeasible
@@ -301,7 +316,7 @@ impl<K: KktSolver> Solver<K> {
                         mu_r,
                         alpha,
                         0.0,
-                        1,
+                        nfact,
                         backtracks,
                         StepKind::Restoration,
                     );
@@ -378,6 +393,9 @@ impl<K: KktSolver> Solver<K> {
             };
             info.factorizations += fact.count;
             info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(fact.count);
+            if fact.fallback {
+                info.fallback_steps += 1;
+            }
 
             // Direction.
             let ts = Instant::now();
@@ -389,6 +407,7 @@ impl<K: KktSolver> Solver<K> {
             let (mu_step, kind) = self.direction(rule, mu, mu_max, fact.delta_w, &err);
             times.solve += ts.elapsed().as_secs_f64();
             mu = mu_step;
+            let mu_step_prev = mu;
             if mu != mu_prev {
                 // A new barrier problem: its filter starts empty.
                 self.ws.filter.clear();
@@ -439,6 +458,10 @@ impl<K: KktSolver> Solver<K> {
                             free_mode = false;
                             let e = compute_errors(&mut self.ws, mu);
                             mu = (0.8 * e.mu_avg).clamp(s.mu_min, mu_max);
+                            if s.barrier == BarrierRule::Adaptive {
+                                // The quality-function rule never raises mu (see `direction`).
+                                mu = mu.min(mu_step_prev);
+                            }
                         }
                     }
                     // Stalling while infeasible: hand over to restoration.
@@ -463,7 +486,14 @@ impl<K: KktSolver> Solver<K> {
                         f_ref = f64::INFINITY;
                         resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
                     }
-                    (alpha, bt, if soc { StepKind::SecondOrder } else { kind })
+                    let kind = if fact.fallback {
+                        StepKind::Fallback
+                    } else if soc {
+                        StepKind::SecondOrder
+                    } else {
+                        kind
+                    };
+                    (alpha, bt, kind)
                 }
                 None => {
                     ls_failures += 1;
@@ -758,7 +788,11 @@ impl<K: KktSolver> Solver<K> {
             0.0
         };
         let mut count = 0;
-        while count < s.max_inertia_corrections {
+        // Inertia-correcting attempts; the last factorization allowed is the fallback's.
+        let attempts = s
+            .max_inertia_corrections
+            .min(s.max_refactorizations.saturating_sub(1));
+        while count < attempts {
             self.fill_diagonals(delta_w, delta_c);
             count += 1;
             let ws = &self.ws;
@@ -776,7 +810,11 @@ impl<K: KktSolver> Solver<K> {
                     } else {
                         0.0
                     };
-                    return Ok(Factorization { delta_w, count });
+                    return Ok(Factorization {
+                        delta_w,
+                        count,
+                        fallback: false,
+                    });
                 }
                 Ok(_) => {}
                 Err(KktError::Singular) => {
@@ -796,10 +834,82 @@ impl<K: KktSolver> Solver<K> {
                 delta_w * 8.0
             };
             if delta_w > s.delta_w_max {
-                return Err(count);
+                break;
             }
         }
-        Err(count)
+        // The next iteration starts its corrections from the largest shift tried here.
+        let delta_w = delta_w.min(s.delta_w_max);
+        self.delta_w_last = delta_w;
+        self.factorize_fallback(delta_w, delta_c, count)
+    }
+
+    /// The bounded answer to bad inertia: factorize the KKT matrix with the Hessian
+    /// convexified by a per-variable Gershgorin shift,
+    /// `D_j = max(0, sum_{k != j} |H_jk| - H_jj) + delta` (delta: see below),
+    /// so that H + D is diagonally dominant with a positive diagonal (hence positive
+    /// definite, Gershgorin's circle theorem), and with a dual shift delta_c > 0. The
+    /// matrix [[H + Sigma + D, J^T], [J, -D_c]] is then quasi-definite and has inertia
+    /// (n, m, 0) whatever H and J are (Vanderbei 1995), so the step needs no inertia check
+    /// and no further refactorization: one factorization through the `KktSolver` trait,
+    /// any backend. The direction is a descent direction of the barrier merit (positive
+    /// definite model), shortened along strongly coupled/negatively curved variables
+    /// only; that is what KNITRO's projected-CG trust-region fallback achieves, at the cost
+    /// of one factorization instead of a CG loop. Counted as a factorization of the
+    /// iteration; returns `Err` only when the backend fails on a non-finite matrix.
+    fn factorize_fallback(
+        &mut self,
+        delta_next: f64,
+        delta_c: f64,
+        count: usize,
+    ) -> Result<Factorization, usize> {
+        let s = self.settings;
+        let ws = &mut self.ws;
+        let n = ws.n;
+        // The shift the correction loop would have tried next is kept on top of the
+        // Gershgorin shift: it acts as a trust-region radius ~ 1/delta that shrinks as the
+        // loop escalated, so the fallback step is no longer than a corrected Newton step
+        // would have been (an unshortened fallback step can leave the region where the
+        // linearized constraints are accurate).
+        let delta = delta_next.max(s.delta_w_init);
+        // tmp_w[..n]: diagonal of H; primal_diag[..n]: off-diagonal absolute row sums.
+        ws.tmp_w[..n].iter_mut().for_each(|v| *v = 0.0);
+        ws.primal_diag.iter_mut().for_each(|v| *v = 0.0);
+        for ((&r, &c), &h) in ws.hess_rows.iter().zip(&ws.hess_cols).zip(&ws.hess) {
+            if r == c {
+                ws.tmp_w[r] += h;
+            } else {
+                ws.primal_diag[r] += h.abs();
+                ws.primal_diag[c] += h.abs();
+            }
+        }
+        for j in 0..n {
+            let shift = (ws.primal_diag[j] - ws.tmp_w[j]).max(0.0);
+            ws.primal_diag[j] = ws.sigma[j] + shift + delta;
+        }
+        let delta_c = delta_c.max(s.delta_c_min).max(1e-8);
+        for i in 0..ws.m {
+            ws.dual_diag[i] = if ws.is_eq[i] {
+                -delta_c
+            } else {
+                -(1.0 / (ws.sigma[n + i] + delta) + delta_c)
+            };
+        }
+        let res = self.kkt.factorize(&KktValues {
+            hess: &ws.hess,
+            jac: &ws.jac,
+            primal_diag: &ws.primal_diag,
+            dual_diag: &ws.dual_diag,
+        });
+        match res {
+            // Quasi-definite: the inertia is right by construction; a backend that
+            // reports otherwise (rounding) still holds a usable factorization.
+            Ok(_) => Ok(Factorization {
+                delta_w: delta,
+                count: count + 1,
+                fallback: true,
+            }),
+            Err(_) => Err(count + 1),
+        }
     }
 
     /// Least-squares estimate of y (IPOPT's default initialization): minimize
@@ -902,6 +1012,7 @@ impl<K: KktSolver> Solver<K> {
         &mut self,
         nlp: &mut P,
         mu_r: f64,
+        nfact: &mut usize,
         teval: &mut f64,
         evals: &mut usize,
     ) -> Option<(f64, usize)> {
@@ -919,8 +1030,14 @@ impl<K: KktSolver> Solver<K> {
         }
         let theta = norm2(&self.ws.c);
         let delta = match self.factorize_with(mu_r, false, 1.0) {
-            Ok(f) => f.delta_w,
-            Err(_) => return None,
+            Ok(f) => {
+                *nfact = f.count;
+                f.delta_w
+            }
+            Err(count) => {
+                *nfact = count;
+                return None;
+            }
         };
         self.set_targets(mu_r, false);
         self.solve_direction_mode(delta, false, true);
@@ -1013,28 +1130,43 @@ impl<K: KktSolver> Solver<K> {
                 self.solve_direction(delta_w, false);
                 (mu_new, StepKind::Newton)
             }
-            BarrierRule::Fullmpc | BarrierRule::Dampmpc => {
-                // Predictor: affine-scaling step (mu = 0).
-                self.set_targets(0.0, false);
-                self.solve_direction(delta_w, false);
-                let tau = 1.0;
-                let (ap, ad) = self.max_steps(tau);
-                let mu_aff = barrier::complementarity_after(&self.ws, ap, ad);
+            BarrierRule::Adaptive => {
+                // Affine (mu = 0) and centred (mu = average complementarity) directions from
+                // the same factorization; mu = sigma * mu_avg with sigma from the quality
+                // function (Nocedal, Waechter, Waltz 2009).
                 let mu_avg = err.mu_avg.max(s.mu_min);
-                let sigma = (mu_aff / mu_avg).clamp(0.0, 1.0).powi(3);
-                // Keep mu from collapsing while far from feasibility.
-                let kkt = err.inf_pr.max(err.inf_du / err.s_d).min(1.0);
-                let floor = s.mu_min.max(s.mu_floor_factor * kkt);
-                // Damping: mu falls by at most `mu_max_decrease` per iteration, so the
-                // barrier keeps regularizing the nonconvex early phase.
-                let floor = floor.max(s.mu_max_decrease * mu);
-                let mu_new = (sigma * mu_avg).max(floor).min(mu_max);
-                {
-                    let ws = &mut self.ws;
-                    ws.dw_aff.copy_from_slice(&ws.dw);
-                    ws.dzl_aff.copy_from_slice(&ws.dzl);
-                    ws.dzu_aff.copy_from_slice(&ws.dzu);
-                }
+                self.affine_predictor(delta_w, mu_avg);
+                self.set_targets(mu_avg, false);
+                self.solve_direction(delta_w, false);
+                let (rd2, rp2) = barrier::residuals_sq(&mut self.ws);
+                let tau = (1.0 - mu).max(s.tau_min);
+                let lo = (s.mu_min / mu_avg).clamp(1e-9, 1e-2);
+                let hi = (mu_max / mu_avg).clamp(1.0, 10.0);
+                let sigma = barrier::quality_sigma(&self.ws, lo, hi, tau, rd2, rp2);
+                // Curvature guard: while the Hessian needed a shift (negative curvature,
+                // far from a local minimizer) mu is kept, so the barrier, not the
+                // regularization, shapes the subproblem; otherwise it never rises.
+                let mu_new = if delta_w >= s.delta_w_init {
+                    mu
+                } else {
+                    (sigma * mu_avg).max(self.mu_floor(mu, err)).min(mu)
+                };
+                self.set_targets(mu_new, false);
+                self.solve_direction(delta_w, false);
+                (mu_new, StepKind::Newton)
+            }
+            BarrierRule::Probing => {
+                let mu_avg = err.mu_avg.max(s.mu_min);
+                let sigma = self.affine_predictor(delta_w, mu_avg);
+                let mu_new = (sigma * mu_avg).max(self.mu_floor(mu, err)).min(mu_max);
+                self.set_targets(mu_new, false);
+                self.solve_direction(delta_w, false);
+                (mu_new, StepKind::Newton)
+            }
+            BarrierRule::Fullmpc | BarrierRule::Dampmpc => {
+                let mu_avg = err.mu_avg.max(s.mu_min);
+                let sigma = self.affine_predictor(delta_w, mu_avg);
+                let mu_new = (sigma * mu_avg).max(self.mu_floor(mu, err)).min(mu_max);
                 if rule == BarrierRule::Dampmpc {
                     // Centering step first, then the corrector only if it is not shorter.
                     self.set_targets(mu_new, false);
@@ -1059,6 +1191,33 @@ impl<K: KktSolver> Solver<K> {
                 }
             }
         }
+    }
+
+    /// Mehrotra's predictor: solves for the affine-scaling step (mu = 0), keeps it in the
+    /// `*_aff` buffers and returns the centering parameter sigma = (mu_aff / mu_avg)^3
+    /// (Mehrotra 1992; Nocedal, Waechter, Waltz 2009, eq. 3.4).
+    fn affine_predictor(&mut self, delta_w: f64, mu_avg: f64) -> f64 {
+        self.set_targets(0.0, false);
+        self.solve_direction(delta_w, false);
+        let (ap, ad) = self.max_steps(1.0);
+        let mu_aff = barrier::complementarity_after(&self.ws, ap, ad);
+        let ws = &mut self.ws;
+        ws.dw_aff.copy_from_slice(&ws.dw);
+        ws.dzl_aff.copy_from_slice(&ws.dzl);
+        ws.dzu_aff.copy_from_slice(&ws.dzu);
+        (mu_aff / mu_avg).clamp(0.0, 1.0).powi(3)
+    }
+
+    /// Safeguards shared by the adaptive rules: mu stays above `mu_floor_factor` times the
+    /// (capped) KKT error, so it does not collapse far from feasibility, and falls by at
+    /// most the factor `mu_max_decrease` per iteration (damping), so the barrier keeps
+    /// regularizing the nonconvex early phase.
+    fn mu_floor(&self, mu: f64, err: &Errors) -> f64 {
+        let s = &self.settings;
+        let kkt = err.inf_pr.max(err.inf_du / err.s_d).min(1.0);
+        s.mu_min
+            .max(s.mu_floor_factor * kkt)
+            .max(s.mu_max_decrease * mu)
     }
 
     /// Complementarity targets: mu, minus the Mehrotra second-order term when `corrector`.

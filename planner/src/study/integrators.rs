@@ -278,13 +278,6 @@ pub fn nrmse_pct(s: &[f64], u: &[f64], s_ref: &[f64], u_ref: &[f64]) -> f64 {
     100.0 * mse.sqrt() / range
 }
 
-/// Median of a non-empty list (NaN if empty).
-fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-}
-
 /// Solves `spec` with `scheme` from the equilibrium guess `repeat` times.
 fn run_scheme<S: DefectScheme, const N: usize>(
     integrator: Integrator,
@@ -313,7 +306,7 @@ fn run_scheme<S: DefectScheme, const N: usize>(
         status: info.status.name().to_string(),
         success: info.status.is_success(),
         iterations: info.iterations,
-        median_ms: median(&times),
+        median_ms: super::median(&mut times),
         solve_ms_all: times,
         t_final: states[N][ix::T],
         max_violation: info.max_violation,

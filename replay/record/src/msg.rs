@@ -41,7 +41,7 @@ pub const VEHICLE_FIELDS: [&str; VEHICLE_LEN] = [
 ];
 
 /// Solver settings per input, in [`SETTINGS_FIELDS`] order.
-pub const SETTINGS_LEN: usize = 34;
+pub const SETTINGS_LEN: usize = 35;
 /// Order of [`PlanInput::settings`] (the fields of `planner::ip::Settings`; integers, enum
 /// indices and booleans stored as exact f64).
 pub const SETTINGS_FIELDS: [&str; SETTINGS_LEN] = [
@@ -78,6 +78,7 @@ pub const SETTINGS_FIELDS: [&str; SETTINGS_LEN] = [
     "mu_superlinear_power",
     "barrier_tol_factor",
     "delta_w_decrease",
+    "max_refactorizations",
     "kkt",
 ];
 

@@ -39,8 +39,9 @@ float64[25] vehicle
 # max_iter max_time_s max_backtracks max_inertia_corrections max_ls_failures
 # max_restoration_steps barrier globalization mu_floor_factor mu_init mu_min bound_push
 # bound_frac bound_relax tau_min armijo second_order_correction penalty_init delta_w_init
-# delta_w_max delta_c_min infeas_stat_tol
-float64[34] settings
+# delta_w_max delta_c_min infeas_stat_tol mu_max_decrease mu_linear_decrease
+# mu_superlinear_power barrier_tol_factor delta_w_decrease max_refactorizations kkt
+float64[35] settings
 # FNV-1a 64 of the bits of vehicle and settings
 uint64 config_hash
 string settings_json

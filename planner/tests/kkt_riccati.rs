@@ -414,11 +414,16 @@ fn dense_solve(s: &System, bx: &[f64], by: &[f64]) -> Vec<f64> {
 #[test]
 fn steps_match_dense_solve() {
     const N: usize = 5;
-    for (seed, fixed, delta_c) in [
-        (21u64, false, 0.0),
-        (22, true, 0.0),
-        (23, false, 1e-6),
-        (24, true, 1e-3),
+    // (seed, fixed x0, dual regularization, some primal diagonals 1e10: a badly scaled P^
+    // as in the restoration phase, where delta_c = 1).
+    for (seed, fixed, delta_c, badly_scaled) in [
+        (21u64, false, 0.0, false),
+        (22, true, 0.0, false),
+        (23, false, 1e-6, false),
+        (24, true, 1e-3, false),
+        (25, false, 1.0, true),
+        (26, true, 1.0, true),
+        (27, false, 0.0, true),
     ] {
         let mut spec = small_spec(N);
         if fixed {
@@ -430,7 +435,12 @@ fn steps_match_dense_solve() {
         let mut nlp = ImplicitEulerNlp::<N>::new(spec).unwrap();
         let structure = nlp.stage_structure().unwrap();
         let mut rng = Rng(seed);
-        let s = system(&mut nlp, &mut rng, delta_c, true);
+        let mut s = system(&mut nlp, &mut rng, delta_c, true);
+        if badly_scaled {
+            for v in s.dx.iter_mut().step_by(7) {
+                *v = 1e10;
+            }
+        }
         let values = KktValues {
             hess: &s.hess,
             jac: &s.jac,
@@ -453,6 +463,19 @@ fn steps_match_dense_solve() {
             .chain(&y)
             .zip(&exact)
             .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        let residual = |x: &[f64], y: &[f64]| {
+            let (kx, ky) = matvec(&s, x, y);
+            kx.iter()
+                .zip(&bx)
+                .chain(ky.iter().zip(&by))
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+        };
+        let (ex, ey) = exact.split_at(s.n);
+        eprintln!(
+            "seed {seed}: diff {diff:e}, |step| {norm:e}, residual riccati {:e} dense {:e}",
+            residual(&x, &y),
+            residual(ex, ey)
+        );
         assert!(
             diff <= 1e-9 * norm,
             "seed {seed}: diff {diff:e}, |step| {norm:e}"

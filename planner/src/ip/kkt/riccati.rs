@@ -86,6 +86,13 @@ struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
     a11: SMatrix<f64, NX, NX>,
     a12: SMatrix<f64, NX, NX>,
     a22: SMatrix<f64, NX, NX>,
+    /// Large uniform Delta = delta I (restoration): lambda_k was eliminated first and
+    /// S_x = P + E^T E / delta = sx_l diag(sx_d) sx_l^T; `e` and `delta` kept for solves.
+    lambda_first: bool,
+    sx_l: SMatrix<f64, NX, NX>,
+    sx_d: SVector<f64, NX>,
+    e: SMatrix<f64, NX, NX>,
+    delta: f64,
     /// Coupling Y of z_k to x_{k+1} at elimination time, and C^ = Y F.
     y: SMatrix<f64, NZ, NX>,
     chat: SMatrix<f64, NZ, NX>,
@@ -103,6 +110,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<
             j: SMatrix::zeros(),
             f: SMatrix::zeros(),
             zero_delta: true,
+            lambda_first: false,
+            sx_l: SMatrix::zeros(),
+            sx_d: SVector::zeros(),
+            e: SMatrix::zeros(),
+            delta: 0.0,
             a11: SMatrix::zeros(),
             a12: SMatrix::zeros(),
             a22: SMatrix::zeros(),
@@ -534,6 +546,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
         let j = fac.j;
         fac.zero_delta = delta.iter().all(|&d| d == 0.0);
+        fac.lambda_first = false;
         let minus_identity =
             (0..NX).all(|c| (0..NX).all(|r| j[(r, c)] == if r == c { -1.0 } else { 0.0 }));
         if fac.zero_delta {
@@ -581,7 +594,31 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             symmetrize(&mut q);
             return Ok(q);
         }
-        // Delta != 0 (restoration, or a raised dual regularization): general blocks.
+        // A large uniform Delta = delta I (the restoration phase's delta_c = 1): eliminate
+        // lambda_k first, M^-1 through S_x = P + E^T E / delta; the pair formula below would
+        // lose digits in K P^ when delta P^ is large.
+        let d0 = delta[0];
+        if d0 > 0.0 && delta.iter().all(|&d| d == d0) && d0 * phat.amax() > 1.0 {
+            let mut sx = p + e.tr_mul(e) / d0;
+            symmetrize(&mut sx);
+            let (l, dd, neg) = ldlt_factor(&sx)?;
+            inertia.positive += NX - neg;
+            inertia.negative += NX + neg;
+            // Q = W~ - V S_x^-1 V^T + J^T J / delta with V = Y + J^T E / delta.
+            let v = fac.y + j.tr_mul(e) / d0;
+            let mut gvt = v.transpose();
+            ldlt_solve_cols(&l, &dd, &mut gvt);
+            q -= v * gvt;
+            q += j.tr_mul(&j) / d0;
+            symmetrize(&mut q);
+            fac.lambda_first = true;
+            fac.sx_l = l;
+            fac.sx_d = dd;
+            fac.e = *e;
+            fac.delta = d0;
+            return Ok(q);
+        }
+        // Delta != 0 (a raised dual regularization): general blocks.
         let sqrt_d = delta.map(|d| d.max(0.0).sqrt());
         let mut ts = phat;
         for c in 0..NX {
@@ -590,18 +627,27 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             }
             ts[(c, c)] += 1.0;
         }
-        let neg = ldlt_factor(&ts)?.2;
+        let (ts_l, ts_d, neg) = ldlt_factor(&ts)?;
         inertia.positive += NX - neg;
         inertia.negative += NX + neg;
         // K = (I + P^ Delta)^-1; [[Delta K, K^T], [K, -K P^]].
-        let mut t = phat;
-        for c in 0..NX {
-            for r in 0..NX {
-                t[(r, c)] *= delta[c];
+        let uniform = delta.iter().all(|&d| d == delta[0]);
+        let k = if uniform {
+            // Uniform Delta (the solver's case): I + P^ Delta = T_s, inverted through the
+            // LDL^T already computed (no pivot threshold on a badly scaled P^).
+            let mut k = SMatrix::<f64, NX, NX>::identity();
+            ldlt_solve_cols(&ts_l, &ts_d, &mut k);
+            k
+        } else {
+            let mut t = phat;
+            for c in 0..NX {
+                for r in 0..NX {
+                    t[(r, c)] *= delta[c];
+                }
+                t[(c, c)] += 1.0;
             }
-            t[(c, c)] += 1.0;
-        }
-        let k = invert(&t).ok_or(KktError::Singular)?;
+            invert(&t).ok_or(KktError::Singular)?
+        };
         let mut a11 = k;
         for r in 0..NX {
             for c in 0..NX {
@@ -622,21 +668,28 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         Ok(q)
     }
 
-    /// Applies the pair's [[P^, I], [I, -Delta]]^-1 to (F^T r1, r2): returns (a, b) with
-    /// x_{k+1} = F a and lambda_k = b.
+    /// Applies the pair's M^-1 to (r1, r2): returns (x_{k+1}, lambda_k).
     #[inline]
     fn apply_pair(
         fac: &StageFactor<NX, NU, NZ>,
         r1: &SVector<f64, NX>,
         r2: &SVector<f64, NX>,
     ) -> (SVector<f64, NX>, SVector<f64, NX>) {
+        if fac.lambda_first {
+            // (P + E^T E / delta) x = r1 + E^T r2 / delta, lambda = (E x - r2) / delta.
+            let mut x = r1 + fac.e.tr_mul(r2) / fac.delta;
+            ldlt_solve_vec(&fac.sx_l, &fac.sx_d, &mut x);
+            let lambda = (fac.e * x - r2) / fac.delta;
+            return (x, lambda);
+        }
+        // [[P^, I], [I, -Delta]]^-1 applied to (F^T r1, r2) gives (a, lambda), x = F a.
         let q1 = fac.f.tr_mul(r1);
         if fac.zero_delta {
-            (*r2, q1 + fac.a22 * r2)
+            (fac.f * r2, q1 + fac.a22 * r2)
         } else {
             let a = fac.a11 * q1 + fac.a12 * r2;
             let b = fac.a12.tr_mul(&q1) + fac.a22 * r2;
-            (a, b)
+            (fac.f * a, b)
         }
     }
 
@@ -813,8 +866,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
         for k in (0..big).rev() {
             let fac = &self.factors[k];
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0).into_owned();
-            let (a, b) = Self::apply_pair(fac, &r1, &self.bl[k]);
-            let upd = fac.chat * a + fac.j.tr_mul(&b);
+            let (x, lambda) = Self::apply_pair(fac, &r1, &self.bl[k]);
+            let upd = fac.y * x + fac.j.tr_mul(&lambda);
             self.bz[k] -= upd;
             let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX).into_owned();
             ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
@@ -859,10 +912,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
             let z = self.bz[k];
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - fac.y.tr_mul(&z);
             let r2 = self.bl[k] - fac.j * z;
-            let (a, b) = Self::apply_pair(fac, &r1, &r2);
-            let xn = fac.f * a;
+            let (xn, lambda) = Self::apply_pair(fac, &r1, &r2);
             self.bz[k + 1].fixed_rows_mut::<NX>(0).copy_from(&xn);
-            self.bl[k] = b;
+            self.bl[k] = lambda;
         }
         // Scatter; path-row multipliers from dy_r = (r_c,r - J_r dx) / D_c.
         for (i, v) in rhs_x.iter_mut().enumerate() {

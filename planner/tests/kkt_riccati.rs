@@ -482,3 +482,61 @@ fn steps_match_dense_solve() {
         );
     }
 }
+
+/// A singular dynamics Jacobian E_k is outside what the Riccati sweep takes: it reports
+/// `Unsupported`, and the `auto` backend hands that factorization to the sparse LDL^T,
+/// whose step still solves the system.
+#[test]
+fn singular_dynamics_jacobian_falls_back_to_sparse() {
+    use planner::ip::kkt::backend::{KktBackend, Pattern};
+    use planner::ip::kkt::{KktError, RowRole};
+    const N: usize = 5;
+    let mut nlp = ImplicitEulerNlp::<N>::new(small_spec(N)).unwrap();
+    let structure = nlp.stage_structure().unwrap();
+    let mut rng = Rng(31);
+    let mut s = system(&mut nlp, &mut rng, 1e-8, false);
+    // E_2 = d defect_2 / d x_3 := 0.
+    let nz = 12;
+    for (q, (&r, &c)) in s.jr.iter().zip(&s.jc).enumerate() {
+        if let RowRole::Dynamics { stage: 2, .. } = structure.rows[r] {
+            if c / nz == 3 {
+                s.jac[q] = 0.0;
+            }
+        }
+    }
+    let values = KktValues {
+        hess: &s.hess,
+        jac: &s.jac,
+        primal_diag: &s.dx,
+        dual_diag: &s.dc,
+    };
+    let mut ric =
+        planner::ip::kkt::RiccatiKkt::<9, 3, 12>::new(&structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc)
+            .unwrap();
+    assert_eq!(ric.factorize(&values), Err(KktError::Unsupported));
+
+    let pattern = Pattern {
+        n: s.n,
+        m: s.m,
+        hess_rows: &s.hr,
+        hess_cols: &s.hc,
+        jac_rows: &s.jr,
+        jac_cols: &s.jc,
+    };
+    let mut auto = KktBackend::new(KktBackendKind::Auto, pattern, Some(&structure)).unwrap();
+    assert_eq!(auto.name(), "riccati");
+    auto.factorize(&values)
+        .expect("the sparse backend takes over");
+    assert_eq!(auto.fallbacks(), 1);
+    let bx: Vec<f64> = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
+    let by: Vec<f64> = (0..s.m).map(|_| rng.range(-1.0, 1.0)).collect();
+    let (mut x, mut y) = (bx.clone(), by.clone());
+    auto.solve(&mut x, &mut y);
+    let exact = dense_solve(&s, &bx, &by);
+    let diff = x
+        .iter()
+        .chain(&y)
+        .zip(&exact)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(diff <= 1e-6 * inf_norm(&exact), "diff {diff:e}");
+}

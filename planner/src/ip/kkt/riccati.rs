@@ -20,9 +20,12 @@
 //!    Bunch-Kaufman LBL^T (inertia from its 1x1 and 2x2 pivots): its dual diagonal ranges
 //!    from equality regularizations (1e-10) to inequality terms (1e6 and more).
 //!
-//! About NZ (7 NX^2 + 4 NX NZ + 2 NZ^2) NX flops a stage instead of a general sparse
-//! factorization of the whole KKT matrix. Works for every single-step scheme whose
-//! dynamics Jacobian E_k is invertible; anything else is [`KktError::Unsupported`].
+//! With the dual regularization Delta = 0 on the dynamics rows (what the solver passes this
+//! backend) and J_k = [-I, G_k] (implicit Euler), the pair step is the plain Riccati update.
+//! A large uniform Delta = delta I (restoration: delta = 1) eliminates lambda_k first,
+//! through S_x = P + E^T E / delta, where the pair formula would lose digits.
+//! Works for every single-step scheme whose dynamics Jacobian E_k is invertible; anything
+//! else is [`KktError::Unsupported`] (the `auto` backend then uses the sparse one).
 
 use super::structure::{RowRole, StageStructure};
 use super::{Inertia, KktError, KktSolver, KktValues};

@@ -1,5 +1,7 @@
 //! General sparse backend: faer's simplicial LDL^T with AMD ordering; symbolic analysis
-//! once at setup, numeric refactorization into preallocated memory every iteration.
+//! once at setup, numeric refactorization into preallocated memory every iteration. The
+//! AMD permutation of the pattern is also done once: values go straight into the permuted
+//! matrix (faer's own permuted layout, so the factorization does the same arithmetic).
 
 use super::{Inertia, KktError, KktSolver, KktValues};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -10,6 +12,7 @@ use faer::sparse::linalg::cholesky::{
     SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::utils::permute_self_adjoint_to_unsorted;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side, Spec};
 
@@ -28,12 +31,22 @@ pub struct SparseLdlt {
     pattern: SymbolicSparseColMat<usize>,
     values: Vec<f64>,
     map: ValueMap,
+    /// The AMD-permuted upper triangle P K P^T: pattern, values, and for each of its
+    /// entries the index of the source entry in `values`.
+    ppattern: SymbolicSparseColMat<usize>,
+    pvalues: Vec<f64>,
+    pmap: Vec<usize>,
+    /// AMD permutation: permuted index i is original index fwd[i]; inv is its inverse.
+    perm_fwd: Vec<usize>,
+    perm_inv: Vec<usize>,
+    /// Symbolic factorization of the permuted matrix (identity ordering).
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
     mem: MemBuffer,
     rhs: Vec<f64>,
     b: Vec<f64>,
     resid: Vec<f64>,
+    xperm: Vec<f64>,
     factorized: bool,
     refine_steps: usize,
 }
@@ -117,16 +130,50 @@ impl SparseLdlt {
         };
         let nnz = keys.len();
         let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
-        let symbolic = factorize_symbolic_cholesky(
+        let params_sym = CholeskySymbolicParams {
+            // Simplicial: measured 2x faster than supernodal on the N = 100 KKT
+            // (factorization 30 vs 60-67 ms over one oval solve).
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+            ..Default::default()
+        };
+        let amd = factorize_symbolic_cholesky(
             pattern.as_ref(),
             Side::Upper,
             SymmetricOrdering::Amd,
-            CholeskySymbolicParams {
-                // Simplicial: measured 2x faster than supernodal on the N = 100 KKT
-                // (factorization 30 vs 60-67 ms over one oval solve).
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
-                ..Default::default()
-            },
+            params_sym,
+        )
+        .map_err(|e| SymbolicError(format!("{e:?}")))?;
+        let (perm_fwd, perm_inv): (Vec<usize>, Vec<usize>) = match amd.perm() {
+            Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
+            None => ((0..dim).collect(), (0..dim).collect()),
+        };
+        // Permute once, carrying each entry's source index as its value (exact in f64).
+        let slots: Vec<f64> = (0..nnz).map(|i| i as f64).collect();
+        let mut pslots = vec![0.0; nnz];
+        let mut pcol_ptr = vec![0usize; dim + 1];
+        let mut prow_idx = vec![0usize; nnz];
+        {
+            let perm = faer::perm::PermRef::new_checked(&perm_fwd, &perm_inv, dim);
+            let mut mem = MemBuffer::new(StackReq::new::<usize>(dim));
+            permute_self_adjoint_to_unsorted(
+                &mut pslots,
+                &mut pcol_ptr,
+                &mut prow_idx,
+                SparseColMatRef::new(pattern.as_ref(), &slots),
+                perm,
+                Side::Upper,
+                Side::Upper,
+                MemStack::new(&mut mem),
+            );
+        }
+        let pmap: Vec<usize> = pslots.iter().map(|&v| v as usize).collect();
+        let ppattern =
+            SymbolicSparseColMat::new_unsorted_checked(dim, dim, pcol_ptr, None, prow_idx);
+        let symbolic = factorize_symbolic_cholesky(
+            ppattern.as_ref(),
+            Side::Upper,
+            SymmetricOrdering::Identity,
+            params_sym,
         )
         .map_err(|e| SymbolicError(format!("{e:?}")))?;
         let params: Spec<LdltParams, f64> = Default::default();
@@ -141,12 +188,18 @@ impl SparseLdlt {
             pattern,
             values: vec![0.0; nnz],
             map,
+            ppattern,
+            pvalues: vec![0.0; nnz],
+            pmap,
+            perm_fwd,
+            perm_inv,
             symbolic,
             l_values,
             mem,
             rhs: vec![0.0; dim],
             b: vec![0.0; dim],
             resid: vec![0.0; dim],
+            xperm: vec![0.0; dim],
             factorized: false,
             refine_steps: 1,
         })
@@ -184,11 +237,19 @@ impl SparseLdlt {
         }
     }
 
+    /// rhs <- K^-1 rhs: permute, solve with the factors of P K P^T, permute back (as
+    /// faer's own permuted solve does).
     fn solve_raw(&mut self) {
         let dim = self.n + self.m;
+        for (x, &f) in self.xperm.iter_mut().zip(&self.perm_fwd) {
+            *x = self.rhs[f];
+        }
         let ldlt = faer::sparse::linalg::cholesky::LdltRef::new(&self.symbolic, &self.l_values);
-        let rhs = MatMut::from_column_major_slice_mut(&mut self.rhs, dim, 1);
-        ldlt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.mem));
+        let x = MatMut::from_column_major_slice_mut(&mut self.xperm, dim, 1);
+        ldlt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.mem));
+        for (r, &i) in self.rhs.iter_mut().zip(&self.perm_inv) {
+            *r = self.xperm[i];
+        }
     }
 
     fn inertia(&self) -> Inertia {
@@ -243,7 +304,10 @@ impl KktSolver for SparseLdlt {
             self.factorized = false;
             return Err(KktError::NonFinite);
         }
-        let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
+        for (pv, &src) in self.pvalues.iter_mut().zip(&self.pmap) {
+            *pv = self.values[src];
+        }
+        let a = SparseColMatRef::new(self.ppattern.as_ref(), &self.pvalues);
         let res = self.symbolic.factorize_numeric_ldlt(
             &mut self.l_values,
             a,

@@ -300,12 +300,16 @@ impl KktSolver for SparseLdlt {
         for (i, &d) in v.dual_diag.iter().enumerate() {
             self.values[self.map.diag[self.n + i]] += d;
         }
-        if self.values.iter().any(|x| !x.is_finite()) {
+        // Gather into the permuted matrix; x * 0 is NaN exactly for NaN and +-inf.
+        let mut nonfinite = 0.0;
+        for (pv, &src) in self.pvalues.iter_mut().zip(&self.pmap) {
+            let x = self.values[src];
+            *pv = x;
+            nonfinite += x * 0.0;
+        }
+        if nonfinite != 0.0 || nonfinite.is_nan() {
             self.factorized = false;
             return Err(KktError::NonFinite);
-        }
-        for (pv, &src) in self.pvalues.iter_mut().zip(&self.pmap) {
-            *pv = self.values[src];
         }
         let a = SparseColMatRef::new(self.ppattern.as_ref(), &self.pvalues);
         let res = self.symbolic.factorize_numeric_ldlt(

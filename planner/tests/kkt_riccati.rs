@@ -234,8 +234,8 @@ fn small_spec(n: usize) -> OcpSpec {
     spec
 }
 
-/// Inertia of the dense KKT matrix from its eigenvalues.
-fn dense_inertia(s: &System) -> (usize, usize, usize) {
+/// The KKT matrix as a dense matrix (small N only).
+fn dense_matrix(s: &System) -> nalgebra::DMatrix<f64> {
     let dim = s.n + s.m;
     let mut k = nalgebra::DMatrix::<f64>::zeros(dim, dim);
     for ((&r, &c), &v) in s.hr.iter().zip(&s.hc).zip(&s.hess) {
@@ -254,6 +254,13 @@ fn dense_inertia(s: &System) -> (usize, usize, usize) {
     for i in 0..s.m {
         k[(s.n + i, s.n + i)] += s.dc[i];
     }
+    k
+}
+
+/// Inertia of the dense KKT matrix from its eigenvalues.
+fn dense_inertia(s: &System) -> (usize, usize, usize) {
+    let dim = s.n + s.m;
+    let k = dense_matrix(s);
     let eig = k.symmetric_eigenvalues();
     let tol = 1e-12 * eig.amax();
     let pos = eig.iter().filter(|&&e| e > tol).count();
@@ -383,23 +390,7 @@ fn riccati_solves_are_repeatable() {
 /// Dense LU solution of the KKT system (small N only).
 fn dense_solve(s: &System, bx: &[f64], by: &[f64]) -> Vec<f64> {
     let dim = s.n + s.m;
-    let mut k = nalgebra::DMatrix::<f64>::zeros(dim, dim);
-    for ((&r, &c), &v) in s.hr.iter().zip(&s.hc).zip(&s.hess) {
-        k[(r, c)] += v;
-        if r != c {
-            k[(c, r)] += v;
-        }
-    }
-    for ((&r, &c), &v) in s.jr.iter().zip(&s.jc).zip(&s.jac) {
-        k[(s.n + r, c)] += v;
-        k[(c, s.n + r)] += v;
-    }
-    for i in 0..s.n {
-        k[(i, i)] += s.dx[i];
-    }
-    for i in 0..s.m {
-        k[(s.n + i, s.n + i)] += s.dc[i];
-    }
+    let k = dense_matrix(s);
     let b = nalgebra::DVector::from_iterator(dim, bx.iter().chain(by).copied());
     k.lu()
         .solve(&b)

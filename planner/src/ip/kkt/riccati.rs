@@ -830,7 +830,18 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
 impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt<NX, NU, NZ> {
     fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
         self.factorized = false;
-        let finite = |a: &[f64]| a.iter().fold(0.0, |acc, &x| acc + x * 0.0) == 0.0;
+        let finite = |a: &[f64]| {
+            // x * 0 is NaN for NaN and +-inf; four independent sums vectorize.
+            let mut acc = [0.0f64; 4];
+            let mut chunks = a.chunks_exact(4);
+            for ch in &mut chunks {
+                for (s, &x) in acc.iter_mut().zip(ch) {
+                    *s += x * 0.0;
+                }
+            }
+            let tail: f64 = chunks.remainder().iter().map(|&x| x * 0.0).sum();
+            acc.iter().sum::<f64>() + tail == 0.0
+        };
         if !(finite(v.hess) && finite(v.jac) && finite(v.primal_diag) && finite(v.dual_diag)) {
             return Err(KktError::NonFinite);
         }
@@ -948,51 +959,52 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
 }
 
 /// Inverse of a small matrix by Gauss-Jordan elimination with partial pivoting; `None`
-/// when a pivot is below 1e-13 of the largest entry (numerically singular).
+/// when a pivot is below 1e-13 of the largest entry (numerically singular). Works on the
+/// transpose, so that the row operations are operations on contiguous columns.
 fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
     let scale = a.amax();
     if scale.is_nan() || scale <= 0.0 || !scale.is_finite() {
         return None;
     }
-    let mut m = *a;
+    let mut t = a.transpose();
     let mut inv = SMatrix::<f64, D, D>::identity();
     for c in 0..D {
         let mut p = c;
-        let mut best = m[(c, c)].abs();
-        for r in c + 1..D {
-            if m[(r, c)].abs() > best {
-                best = m[(r, c)].abs();
-                p = r;
+        let mut best = t[(c, c)].abs();
+        for j in c + 1..D {
+            if t[(c, j)].abs() > best {
+                best = t[(c, j)].abs();
+                p = j;
             }
         }
         if best.is_nan() || best <= 1e-13 * scale {
             return None;
         }
         if p != c {
-            m.swap_rows(p, c);
-            inv.swap_rows(p, c);
+            t.swap_columns(p, c);
+            inv.swap_columns(p, c);
         }
-        let piv = 1.0 / m[(c, c)];
-        for j in c + 1..D {
-            m[(c, j)] *= piv;
+        let piv = 1.0 / t[(c, c)];
+        for i in c + 1..D {
+            t[(i, c)] *= piv;
+        }
+        for i in 0..D {
+            inv[(i, c)] *= piv;
         }
         for j in 0..D {
-            inv[(c, j)] *= piv;
-        }
-        for r in 0..D {
-            let f = m[(r, c)];
-            if r != c && f != 0.0 {
-                // Columns <= c of m are done (zero off the pivot rows): only j > c change.
-                for j in c + 1..D {
-                    m[(r, j)] -= f * m[(c, j)];
+            let f = t[(c, j)];
+            if j != c && f != 0.0 {
+                // Rows <= c of the transpose are done: only i > c still change.
+                for i in c + 1..D {
+                    t[(i, j)] -= f * t[(i, c)];
                 }
-                for j in 0..D {
-                    inv[(r, j)] -= f * inv[(c, j)];
+                for i in 0..D {
+                    inv[(i, j)] -= f * inv[(i, c)];
                 }
             }
         }
     }
-    Some(inv)
+    Some(inv.transpose())
 }
 
 /// Copies the lower triangle's average into both triangles.

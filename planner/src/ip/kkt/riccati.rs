@@ -530,23 +530,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         inertia: &mut Inertia,
     ) -> Result<SMatrix<f64, NZ, NZ>, KktError> {
         let f = invert(e).ok_or(KktError::Unsupported)?;
-        let mut phat = f.tr_mul(&(p * f));
+        let mut phat = mul_tn(&f, &mul_nn(p, &f));
         symmetrize(&mut phat);
         fac.f = f;
-        // C^ = Y F; Y is zero outside the few rows of z_k that couple to x_{k+1}.
-        for r in 0..NZ {
-            if (0..NX).all(|c| fac.y[(r, c)] == 0.0) {
-                fac.chat.row_mut(r).fill(0.0);
-            } else {
-                for c in 0..NX {
-                    let mut acc = 0.0;
-                    for i in 0..NX {
-                        acc += fac.y[(r, i)] * f[(i, c)];
-                    }
-                    fac.chat[(r, c)] = acc;
-                }
-            }
-        }
+        // C^ = Y F (Y is zero outside the few rows of z_k that couple to x_{k+1}).
+        fac.chat = mul_nn(&fac.y, &f);
         let j = fac.j;
         fac.zero_delta = delta.iter().all(|&d| d == 0.0);
         fac.lambda_first = false;
@@ -560,9 +548,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             if minus_identity {
                 // J = [-I, G]: Q = W~ - C^J - (C^J)^T + J^T P^ J written blockwise.
                 let g: SMatrix<f64, NX, NU> = j.fixed_view::<NX, NU>(0, NX).into_owned();
-                let cg = fac.chat * g;
-                let pg = phat * g;
-                let gpg = g.tr_mul(&pg);
+                let cg = mul_nn(&fac.chat, &g);
+                let pg = mul_nn(&phat, &g);
+                let gpg = mul_tn(&g, &pg);
                 for c in 0..NX {
                     for r in 0..NZ {
                         q[(r, c)] += fac.chat[(r, c)];
@@ -1005,6 +993,46 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
         }
     }
     Some(inv.transpose())
+}
+
+/// a b for small column-major matrices, as axpys over contiguous columns (zeros of b
+/// skipped).
+#[inline]
+fn mul_nn<const R: usize, const K: usize, const C: usize>(
+    a: &SMatrix<f64, R, K>,
+    b: &SMatrix<f64, K, C>,
+) -> SMatrix<f64, R, C> {
+    let mut out = SMatrix::<f64, R, C>::zeros();
+    for c in 0..C {
+        for k in 0..K {
+            let bkc = b[(k, c)];
+            if bkc != 0.0 {
+                for r in 0..R {
+                    out[(r, c)] += a[(r, k)] * bkc;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// a^T b for small column-major matrices, as dots of contiguous columns.
+#[inline]
+fn mul_tn<const R: usize, const K: usize, const C: usize>(
+    a: &SMatrix<f64, K, R>,
+    b: &SMatrix<f64, K, C>,
+) -> SMatrix<f64, R, C> {
+    let mut out = SMatrix::<f64, R, C>::zeros();
+    for c in 0..C {
+        for r in 0..R {
+            let mut acc = 0.0;
+            for k in 0..K {
+                acc += a[(k, r)] * b[(k, c)];
+            }
+            out[(r, c)] = acc;
+        }
+    }
+    out
 }
 
 /// Copies the lower triangle's average into both triangles.

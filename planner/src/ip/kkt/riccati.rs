@@ -526,9 +526,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         p: &SMatrix<f64, NX, NX>,
         e: &SMatrix<f64, NX, NX>,
         delta: &SVector<f64, NX>,
-        mut q: SMatrix<f64, NZ, NZ>,
+        q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
-    ) -> Result<SMatrix<f64, NZ, NZ>, KktError> {
+    ) -> Result<(), KktError> {
         let f = invert(e).ok_or(KktError::Unsupported)?;
         let mut phat = mul_tn(&f, &mul_nn(p, &f));
         symmetrize(&mut phat);
@@ -579,11 +579,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 }
             } else {
                 let cj = fac.chat * j;
-                q -= cj + cj.transpose();
-                q += j.tr_mul(&(phat * j));
+                *q -= cj + cj.transpose();
+                *q += j.tr_mul(&(phat * j));
             }
-            symmetrize(&mut q);
-            return Ok(q);
+            symmetrize(q);
+            return Ok(());
         }
         // A large uniform Delta = delta I (the restoration phase's delta_c = 1): eliminate
         // lambda_k first, M^-1 through S_x = P + E^T E / delta; the pair formula below would
@@ -599,15 +599,15 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             let v = fac.y + j.tr_mul(e) / d0;
             let mut gvt = v.transpose();
             ldlt_solve_cols(&l, &dd, &mut gvt);
-            q -= v * gvt;
-            q += j.tr_mul(&j) / d0;
-            symmetrize(&mut q);
+            *q -= v * gvt;
+            *q += j.tr_mul(&j) / d0;
+            symmetrize(q);
             fac.lambda_first = true;
             fac.sx_l = l;
             fac.sx_d = dd;
             fac.e = *e;
             fac.delta = d0;
-            return Ok(q);
+            return Ok(());
         }
         // Delta != 0 (a raised dual regularization): general blocks.
         let sqrt_d = delta.map(|d| d.max(0.0).sqrt());
@@ -653,10 +653,10 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         fac.a22 = a22;
         // S = C^ a11 C^T + C^ a12 J + J^T a12^T C^T + J^T a22 J.
         let cross = fac.chat * fac.a12 * j;
-        q -= fac.chat * a11 * fac.chat.transpose() + cross + cross.transpose();
-        q -= j.tr_mul(&(a22 * j));
-        symmetrize(&mut q);
-        Ok(q)
+        *q -= fac.chat * a11 * fac.chat.transpose() + cross + cross.transpose();
+        *q -= j.tr_mul(&(a22 * j));
+        symmetrize(q);
+        Ok(())
     }
 
     /// Applies the pair's M^-1 to (r1, r2): returns (x_{k+1}, lambda_k).
@@ -696,7 +696,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             self.x_block(big - 1).fixed_view::<NX, NZ>(0, 0).transpose();
         let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
         for k in (0..big).rev() {
-            let w = self.w_block(k) - pending;
+            let mut q = self.w_block(k);
+            q -= pending;
             let e = self.e_block(k);
             let j = self.j_block(k);
             let prev = if k > 0 {
@@ -707,7 +708,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             let fac = &mut self.factors[k];
             fac.y = y;
             fac.j = j;
-            let q = Self::eliminate_pair(fac, &p, &e, &self.delta[k], w, &mut inertia)?;
+            Self::eliminate_pair(fac, &p, &e, &self.delta[k], &mut q, &mut inertia)?;
             // u_k.
             let quu: SMatrix<f64, NU, NU> = q.fixed_view::<NU, NU>(NX, NX).into_owned();
             let (l, d, neg) = ldlt_factor(&quu)?;

@@ -125,6 +125,19 @@ fn inf_norm(a: &[f64]) -> f64 {
     a.iter().fold(0.0, |m, v| m.max(v.abs()))
 }
 
+/// A measured initial state (20 m/s straight ahead) for the fixed-x0 cases.
+fn fixed_x0() -> InitialState {
+    let mut x0 = [0.0; 9];
+    x0[1] = 20.0;
+    x0[3] = 20.0;
+    InitialState::Fixed(x0)
+}
+
+/// The Riccati backend for a system's pattern.
+fn riccati_for(structure: &planner::ip::kkt::StageStructure, s: &System) -> VehicleRiccati {
+    VehicleRiccati::new(structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc).unwrap()
+}
+
 fn check_same_steps(initial: InitialState, delta_c: f64, seed: u64) {
     let mut spec = oval_spec();
     spec.initial = initial;
@@ -144,7 +157,7 @@ fn check_same_steps(initial: InitialState, delta_c: f64, seed: u64) {
         let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
         // Its LDL^T without pivoting needs a few refinement steps to be a reference.
         sparse.set_refine_steps(5);
-        let mut ric = VehicleRiccati::new(&structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
+        let mut ric = riccati_for(&structure, &s);
         let in_s = sparse.factorize(&values).unwrap();
         let in_r = ric.factorize(&values).unwrap();
         assert_eq!(in_s, in_r, "inertia, trial {trial}");
@@ -191,10 +204,7 @@ fn same_steps_as_sparse_free_start() {
 
 #[test]
 fn same_steps_as_sparse_fixed_start() {
-    let mut x0 = [0.0; 9];
-    x0[1] = 20.0;
-    x0[3] = 20.0;
-    check_same_steps(InitialState::Fixed(x0), 1e-10, 11);
+    check_same_steps(fixed_x0(), 1e-10, 11);
 }
 
 fn oval_planner(kkt: KktBackendKind) -> Planner<100> {
@@ -276,10 +286,7 @@ fn inertia_matches_dense_eigenvalues() {
     for (seed, fixed) in [(3u64, false), (5, true), (9, false), (17, true)] {
         let mut spec = small_spec(N);
         if fixed {
-            let mut x0 = [0.0; 9];
-            x0[1] = 20.0;
-            x0[3] = 20.0;
-            spec.initial = InitialState::Fixed(x0);
+            spec.initial = fixed_x0();
         }
         let mut nlp = ImplicitEulerNlp::<N>::new(spec).unwrap();
         let structure = nlp.stage_structure().unwrap();
@@ -292,10 +299,7 @@ fn inertia_matches_dense_eigenvalues() {
                 primal_diag: &s.dx,
                 dual_diag: &s.dc,
             };
-            let mut ric = planner::ip::kkt::RiccatiKkt::<9, 3, 12>::new(
-                &structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc,
-            )
-            .unwrap();
+            let mut ric = riccati_for(&structure, &s);
             let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
             let (pos, neg, zero) = dense_inertia(&s);
             let r = ric.factorize(&values);
@@ -350,7 +354,7 @@ fn riccati_residuals_during_oval_solve() {
     let mut rng = Rng(1);
     let s = system(nlp, &mut rng, 0.0, false);
     let st = nlp.stage_structure().unwrap();
-    let inner = VehicleRiccati::new(&st, s.n, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
+    let inner = riccati_for(&st, &s);
     let ws = Workspace::new(&*nlp, settings.max_iter + 2);
     let mut solver = Solver::with_backend(
         settings,
@@ -418,10 +422,7 @@ fn steps_match_dense_solve() {
     ] {
         let mut spec = small_spec(N);
         if fixed {
-            let mut x0 = [0.0; 9];
-            x0[1] = 20.0;
-            x0[3] = 20.0;
-            spec.initial = InitialState::Fixed(x0);
+            spec.initial = fixed_x0();
         }
         let mut nlp = ImplicitEulerNlp::<N>::new(spec).unwrap();
         let structure = nlp.stage_structure().unwrap();
@@ -438,10 +439,7 @@ fn steps_match_dense_solve() {
             primal_diag: &s.dx,
             dual_diag: &s.dc,
         };
-        let mut ric = planner::ip::kkt::RiccatiKkt::<9, 3, 12>::new(
-            &structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc,
-        )
-        .unwrap();
+        let mut ric = riccati_for(&structure, &s);
         ric.factorize(&values).unwrap();
         let bx: Vec<f64> = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
         let by: Vec<f64> = (0..s.m).map(|_| rng.range(-1.0, 1.0)).collect();
@@ -501,9 +499,7 @@ fn singular_dynamics_jacobian_falls_back_to_sparse() {
         primal_diag: &s.dx,
         dual_diag: &s.dc,
     };
-    let mut ric =
-        planner::ip::kkt::RiccatiKkt::<9, 3, 12>::new(&structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc)
-            .unwrap();
+    let mut ric = riccati_for(&structure, &s);
     assert_eq!(ric.factorize(&values), Err(KktError::Unsupported));
 
     let pattern = Pattern {

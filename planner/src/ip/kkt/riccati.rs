@@ -529,7 +529,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
     ) -> Result<(), KktError> {
-        let f = invert(e).ok_or(KktError::Unsupported)?;
+        let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
         let mut phat = mul_tn(&f, &mul_nn(p, &f));
         symmetrize(&mut phat);
         fac.f = f;
@@ -994,6 +994,87 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
         }
     }
     Some(inv.transpose())
+}
+
+/// Inverse of E = [[A, 0], [B, I]] whose trailing columns are unit vectors, as
+/// [[A^-1, 0], [-B A^-1, I]]: the implicit-Euler dynamics Jacobian E = I - ds df/dx has
+/// them for s and t (no state depends on either), so only the leading 7 x 7 block is
+/// inverted (Gauss-Jordan with partial pivoting, as [`invert`]). Without unit columns it is
+/// [`invert`].
+fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+    let mut k = D;
+    while k > 1 && (0..D).all(|r| e[(r, k - 1)] == if r == k - 1 { 1.0 } else { 0.0 }) {
+        k -= 1;
+    }
+    if k == D {
+        return invert(e);
+    }
+    let scale = e.amax();
+    if scale.is_nan() || !scale.is_finite() {
+        return None;
+    }
+    // Gauss-Jordan on the transpose of A (columns of t are rows of A), as `invert`.
+    let mut t = SMatrix::<f64, D, D>::zeros();
+    let mut inv = SMatrix::<f64, D, D>::zeros();
+    for c in 0..k {
+        for r in 0..k {
+            t[(r, c)] = e[(c, r)];
+        }
+        inv[(c, c)] = 1.0;
+    }
+    for c in 0..k {
+        let mut p = c;
+        let mut best = t[(c, c)].abs();
+        for j in c + 1..k {
+            if t[(c, j)].abs() > best {
+                best = t[(c, j)].abs();
+                p = j;
+            }
+        }
+        if best.is_nan() || best <= 1e-13 * scale {
+            return None;
+        }
+        if p != c {
+            t.swap_columns(p, c);
+            inv.swap_columns(p, c);
+        }
+        let piv = 1.0 / t[(c, c)];
+        for i in c + 1..k {
+            t[(i, c)] *= piv;
+        }
+        for i in 0..k {
+            inv[(i, c)] *= piv;
+        }
+        for j in 0..k {
+            let f = t[(c, j)];
+            if j != c && f != 0.0 {
+                for i in c + 1..k {
+                    t[(i, j)] -= f * t[(i, c)];
+                }
+                for i in 0..k {
+                    inv[(i, j)] -= f * inv[(i, c)];
+                }
+            }
+        }
+    }
+    // inv holds (A^-1)^T in its leading block; assemble E^-1.
+    let mut out = SMatrix::<f64, D, D>::zeros();
+    for c in 0..k {
+        for r in 0..k {
+            out[(r, c)] = inv[(c, r)];
+        }
+    }
+    for r in k..D {
+        for c in 0..k {
+            let mut acc = 0.0;
+            for j in 0..k {
+                acc += e[(r, j)] * out[(j, c)];
+            }
+            out[(r, c)] = -acc;
+        }
+        out[(r, r)] = 1.0;
+    }
+    Some(out)
 }
 
 /// a b for small column-major matrices, as axpys over contiguous columns (zeros of b

@@ -999,82 +999,72 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
 /// Inverse of E = [[A, 0], [B, I]] whose trailing columns are unit vectors, as
 /// [[A^-1, 0], [-B A^-1, I]]: the implicit-Euler dynamics Jacobian E = I - ds df/dx has
 /// them for s and t (no state depends on either), so only the leading 7 x 7 block is
-/// inverted (Gauss-Jordan with partial pivoting, as [`invert`]). Without unit columns it is
-/// [`invert`].
+/// inverted ([`gauss_jordan`]). Any other shape goes to [`invert`].
 fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
-    let mut k = D;
-    while k > 1 && (0..D).all(|r| e[(r, k - 1)] == if r == k - 1 { 1.0 } else { 0.0 }) {
-        k -= 1;
-    }
-    if k == D {
+    const K: usize = 7;
+    if D != K + 2 || !(K..D).all(|c| (0..D).all(|r| e[(r, c)] == if r == c { 1.0 } else { 0.0 })) {
         return invert(e);
     }
     let scale = e.amax();
     if scale.is_nan() || !scale.is_finite() {
         return None;
     }
-    // Gauss-Jordan on the transpose of A (columns of t are rows of A), as `invert`.
-    let mut t = SMatrix::<f64, D, D>::zeros();
-    let mut inv = SMatrix::<f64, D, D>::zeros();
-    for c in 0..k {
-        for r in 0..k {
-            t[(r, c)] = e[(c, r)];
-        }
-        inv[(c, c)] = 1.0;
-    }
-    for c in 0..k {
-        let mut p = c;
-        let mut best = t[(c, c)].abs();
-        for j in c + 1..k {
-            if t[(c, j)].abs() > best {
-                best = t[(c, j)].abs();
-                p = j;
-            }
-        }
-        if best.is_nan() || best <= 1e-13 * scale {
-            return None;
-        }
-        if p != c {
-            t.swap_columns(p, c);
-            inv.swap_columns(p, c);
-        }
-        let piv = 1.0 / t[(c, c)];
-        for i in c + 1..k {
-            t[(i, c)] *= piv;
-        }
-        for i in 0..k {
-            inv[(i, c)] *= piv;
-        }
-        for j in 0..k {
-            let f = t[(c, j)];
-            if j != c && f != 0.0 {
-                for i in c + 1..k {
-                    t[(i, j)] -= f * t[(i, c)];
-                }
-                for i in 0..k {
-                    inv[(i, j)] -= f * inv[(i, c)];
-                }
-            }
-        }
-    }
-    // inv holds (A^-1)^T in its leading block; assemble E^-1.
+    let a: [[f64; K]; K] = std::array::from_fn(|r| std::array::from_fn(|c| e[(r, c)]));
+    let ai = gauss_jordan(a, 1e-13 * scale)?;
     let mut out = SMatrix::<f64, D, D>::zeros();
-    for c in 0..k {
-        for r in 0..k {
-            out[(r, c)] = inv[(c, r)];
+    for (r, row) in ai.iter().enumerate() {
+        for (c, &v) in row.iter().enumerate() {
+            out[(r, c)] = v;
         }
     }
-    for r in k..D {
-        for c in 0..k {
+    for r in K..D {
+        for c in 0..K {
             let mut acc = 0.0;
-            for j in 0..k {
-                acc += e[(r, j)] * out[(j, c)];
+            for (j, row) in ai.iter().enumerate() {
+                acc += e[(r, j)] * row[c];
             }
             out[(r, c)] = -acc;
         }
         out[(r, r)] = 1.0;
     }
     Some(out)
+}
+
+/// Inverse of a small row-major matrix by Gauss-Jordan elimination with partial pivoting
+/// on the augmented rows [A | I] (fixed-length row operations, so they vectorize); `None`
+/// when a pivot is NaN or at most `tiny` in magnitude.
+fn gauss_jordan<const K: usize>(mut a: [[f64; K]; K], tiny: f64) -> Option<[[f64; K]; K]> {
+    let mut b: [[f64; K]; K] =
+        std::array::from_fn(|r| std::array::from_fn(|c| f64::from(u8::from(r == c))));
+    for c in 0..K {
+        let mut p = c;
+        let mut best = a[c][c].abs();
+        for (r, row) in a.iter().enumerate().skip(c + 1) {
+            if row[c].abs() > best {
+                best = row[c].abs();
+                p = r;
+            }
+        }
+        if best.is_nan() || best <= tiny {
+            return None;
+        }
+        a.swap(p, c);
+        b.swap(p, c);
+        let piv = 1.0 / a[c][c];
+        let (ac, bc) = (a[c].map(|v| v * piv), b[c].map(|v| v * piv));
+        a[c] = ac;
+        b[c] = bc;
+        for r in 0..K {
+            if r != c {
+                let f = a[r][c];
+                for j in 0..K {
+                    a[r][j] -= f * ac[j];
+                    b[r][j] -= f * bc[j];
+                }
+            }
+        }
+    }
+    Some(b)
 }
 
 /// a b for small column-major matrices, as axpys over contiguous columns (zeros of b
@@ -1192,5 +1182,72 @@ fn ldlt_solve_cols<const D: usize, const C: usize>(
         let mut col: SVector<f64, D> = b.column(c).into_owned();
         ldlt_solve_vec(l, d, &mut col);
         b.set_column(c, &col);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deterministic E = [[A, 0], [B, I]] (9 x 9, unit s and t columns) whose A needs
+    /// row pivoting (zero leading diagonal entry) and is far from diagonal dominance.
+    fn unit_tail_e() -> SMatrix<f64, 9, 9> {
+        let mut e = SMatrix::<f64, 9, 9>::zeros();
+        for c in 0..7 {
+            for r in 0..9 {
+                let v = ((r * 7 + c * 3) % 11) as f64 - 5.0;
+                e[(r, c)] = v * 0.3 + if r == c { 2.0 } else { 0.0 };
+            }
+        }
+        e[(0, 0)] = 0.0;
+        e[(7, 7)] = 1.0;
+        e[(8, 8)] = 1.0;
+        e
+    }
+
+    #[test]
+    fn unit_tail_inverse_matches_general_inverse() {
+        let e = unit_tail_e();
+        let f = invert_unit_tail(&e).expect("nonsingular");
+        let g = invert(&e).expect("nonsingular");
+        let id = e * f;
+        for r in 0..9 {
+            for c in 0..9 {
+                let want = if r == c { 1.0 } else { 0.0 };
+                assert!(
+                    (id[(r, c)] - want).abs() < 1e-12,
+                    "E F at ({r}, {c}): {}",
+                    id[(r, c)]
+                );
+                assert!((f[(r, c)] - g[(r, c)]).abs() < 1e-12 * g.amax());
+            }
+        }
+    }
+
+    #[test]
+    fn unit_tail_inverse_rejects_singular_and_non_finite() {
+        let mut e = unit_tail_e();
+        // Row 1 of A := row 2 of A (columns 0..7): singular leading block.
+        for c in 0..7 {
+            e[(1, c)] = e[(2, c)];
+        }
+        assert!(invert_unit_tail(&e).is_none());
+        let mut e = unit_tail_e();
+        e[(3, 4)] = f64::NAN;
+        assert!(invert_unit_tail(&e).is_none());
+    }
+
+    #[test]
+    fn without_unit_tail_the_general_inverse_is_used() {
+        let mut e = unit_tail_e();
+        e[(2, 8)] = 0.5;
+        let f = invert_unit_tail(&e).expect("nonsingular");
+        let id = e * f;
+        for r in 0..9 {
+            for c in 0..9 {
+                let want = if r == c { 1.0 } else { 0.0 };
+                assert!((id[(r, c)] - want).abs() < 1e-12);
+            }
+        }
     }
 }

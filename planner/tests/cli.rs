@@ -30,6 +30,7 @@ fn solve_json_has_the_contract_fields() {
         "t_final",
         "max_violation",
         "initial_violation",
+        "start_violation",
         "max_abs_beta_rad",
         "guess",
         "integrator",

@@ -83,6 +83,11 @@ fn zero_guess_ends_with_an_honest_status_within_caps() {
     assert!(p.states().iter().flatten().all(|v| v.is_finite()));
     // The zero guess starts far more infeasible (V = 0 makes the 1/V terms singular).
     assert!(zero.initial_violation > 100.0 * eq.initial_violation);
+    // Where the iteration starts (pushed into the bounds, V >= v_min) the violation is
+    // finite, and still far above the equilibrium guess's.
+    assert!(zero.start_violation.is_finite(), "{}", zero.start_violation);
+    assert!(zero.start_violation > 10.0 * eq.start_violation);
+    assert!(eq.start_violation < 2.0, "{}", eq.start_violation);
     if zero.status == Status::Optimal {
         let t_n = p.states()[100][ix::T];
         assert!(((t_n - T_REF) / T_REF).abs() < 0.005, "t_N = {t_n}");

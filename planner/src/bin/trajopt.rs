@@ -462,7 +462,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     let eq = planner.equilibrium();
     let summary = format!(
         "{name}: status {status}, {it} iterations, solve {solve_ms:.2} ms (median of {rep}), \
-         t_final {tf:.4} s, max violation {mv:.2e} (initial {iv:.2e}), max |beta| {mb:.3} rad\n  \
+         t_final {tf:.4} s, max violation {mv:.2e} (initial {iv:.2e}, {sv:.2e} pushed into the bounds), max |beta| {mb:.3} rad\n  \
          guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, kkt {kkt}, \
          tire saturation {sat}\n  \
          time: evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
@@ -473,6 +473,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         tf = traj.t_final(),
         mv = info.max_violation,
         iv = info.initial_violation,
+        sv = info.start_violation,
         mb = traj.max_abs_beta(),
         guess = guess.name(),
         v = eq.x[planner::model::ix::V],
@@ -501,6 +502,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "objective": info.objective,
             "max_violation": info.max_violation,
             "initial_violation": info.initial_violation,
+            "start_violation": info.start_violation,
             "max_abs_beta_rad": traj.max_abs_beta(),
             "guess": guess.name(),
             "integrator": "implicit_euler",

@@ -129,8 +129,12 @@ pub struct SolveInfo {
     pub objective: f64,
     /// Max constraint violation (bounds and constraints) at the returned point.
     pub max_violation: f64,
-    /// Max constraint violation at the starting point (before the bound push).
+    /// Max constraint violation at the starting point (before the bound push); infinite
+    /// where the model is singular there (V = 0 in the zero guess).
     pub initial_violation: f64,
+    /// Max constraint violation where the iteration actually starts: the starting point
+    /// pushed into the variable bounds (finite whenever the solve runs).
+    pub start_violation: f64,
     /// Scaled dual infeasibility at the returned point.
     pub dual_inf: f64,
     /// Scaled complementarity at the returned point.

@@ -140,6 +140,7 @@ impl<K: KktSolver> Solver<K> {
             objective: f64::NAN,
             max_violation: f64::NAN,
             initial_violation: f64::NAN,
+            start_violation: f64::NAN,
             dual_inf: f64::NAN,
             compl: f64::NAN,
             mu: f64::NAN,
@@ -606,17 +607,7 @@ impl<K: KktSolver> Solver<K> {
         nlp.eval_g(&ws.w[..n], &mut ws.g);
         times.evaluation += te.elapsed().as_secs_f64();
         info.evaluations += 1;
-        // Initial violation of the given point.
-        let mut viol: f64 = 0.0;
-        for j in 0..n {
-            viol = viol
-                .max(ws.lo_orig[j] - ws.w[j])
-                .max(ws.w[j] - ws.hi_orig[j]);
-        }
-        for i in 0..m {
-            viol = viol.max(ws.g_l[i] - ws.g[i]).max(ws.g[i] - ws.g_u[i]);
-        }
-        info.initial_violation = viol;
+        info.initial_violation = start_violation(ws);
         for i in 0..m {
             ws.w[n + i] = if ws.is_eq[i] { ws.g_l[i] } else { ws.g[i] };
         }
@@ -651,6 +642,7 @@ impl<K: KktSolver> Solver<K> {
             info.status = Status::InvalidInput;
             return false;
         }
+        info.start_violation = start_violation(ws);
         residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g, &ws.w, &mut ws.c);
         true
     }
@@ -1759,6 +1751,21 @@ const RESTO_STAGNATION: usize = 20;
 /// `a <= b` up to rounding in quantities of magnitude `base` (IPOPT's Compare_le).
 fn le(a: f64, b: f64, base: f64) -> bool {
     a - b <= 10.0 * f64::EPSILON * base.abs().max(1.0)
+}
+
+/// Largest violation of the original variable bounds and constraint bounds at w with the
+/// constraint values in `g` (NaN entries are skipped by `max`, infinities kept).
+fn start_violation(ws: &Workspace) -> f64 {
+    let mut viol: f64 = 0.0;
+    for j in 0..ws.n {
+        viol = viol
+            .max(ws.lo_orig[j] - ws.w[j])
+            .max(ws.w[j] - ws.hi_orig[j]);
+    }
+    for i in 0..ws.m {
+        viol = viol.max(ws.g_l[i] - ws.g[i]).max(ws.g[i] - ws.g_u[i]);
+    }
+    viol
 }
 
 fn norm1(v: &[f64]) -> f64 {

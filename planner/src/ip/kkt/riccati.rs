@@ -191,6 +191,8 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     bz: Vec<SVector<f64, NZ>>,
     bl: Vec<SVector<f64, NX>>,
     factorized: bool,
+    /// Factorize and solve in code compiled for AVX2 (set from [`avx2_available`]).
+    simd: bool,
 }
 
 impl<const NX: usize, const NU: usize, const NZ: usize> std::fmt::Debug for RiccatiKkt<NX, NU, NZ> {
@@ -434,11 +436,13 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             bz: vec![SVector::zeros(); big + 1],
             bl: vec![SVector::zeros(); big + 1],
             factorized: false,
+            simd: avx2_available(),
         })
     }
 
     /// Writes the KKT values into the block arena, the path rows eliminated into W and X
     /// (step 1). Returns the number of path rows (one negative eigenvalue each).
+    #[inline(always)]
     fn assemble(&mut self, v: &KktValues<'_>) -> Result<usize, KktError> {
         let arena = &mut self.arena;
         if self.jac_assign {
@@ -490,7 +494,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     }
 
     /// W_k, its upper triangle filled from the lower one.
-    #[inline]
+    #[inline(always)]
     fn w_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
         let mut w = SMatrix::from_column_slice(&self.arena[k * NZ * NZ..(k + 1) * NZ * NZ]);
         for c in 0..NZ {
@@ -501,19 +505,19 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         w
     }
 
-    #[inline]
+    #[inline(always)]
     fn x_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
         let o = self.x_base + k * NZ * NZ;
         SMatrix::from_column_slice(&self.arena[o..o + NZ * NZ])
     }
 
-    #[inline]
+    #[inline(always)]
     fn e_block(&self, k: usize) -> SMatrix<f64, NX, NX> {
         let o = self.e_base + k * NX * NX;
         SMatrix::from_column_slice(&self.arena[o..o + NX * NX])
     }
 
-    #[inline]
+    #[inline(always)]
     fn j_block(&self, k: usize) -> SMatrix<f64, NX, NZ> {
         let o = self.j_base + k * NX * NZ;
         SMatrix::from_column_slice(&self.arena[o..o + NX * NZ])
@@ -521,6 +525,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
 
     /// Eliminates the pair (x_{k+1}, lambda_k) (factor `fac` holds J, Y on entry) and
     /// returns z_k's block after the update, Q = W~ - C M^-1 C^T.
+    #[inline(always)]
     fn eliminate_pair(
         fac: &mut StageFactor<NX, NU, NZ>,
         p: &SMatrix<f64, NX, NX>,
@@ -660,7 +665,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     }
 
     /// Applies the pair's M^-1 to (r1, r2): returns (x_{k+1}, lambda_k).
-    #[inline]
+    #[inline(always)]
     fn apply_pair(
         fac: &StageFactor<NX, NU, NZ>,
         r1: &SVector<f64, NX>,
@@ -684,6 +689,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
     }
 
+    #[inline(always)]
     fn factorize_blocks(&mut self, negative_path: usize) -> Result<Inertia, KktError> {
         let big = self.stages;
         let mut inertia = Inertia {
@@ -739,6 +745,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     }
 
     /// The initial block [[P_0, E^T], [E, -Delta]] by Bunch-Kaufman (step 3).
+    #[inline(always)]
     fn factorize_initial(
         &mut self,
         p: &SMatrix<f64, NX, NX>,
@@ -816,8 +823,23 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     }
 }
 
-impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt<NX, NU, NZ> {
-    fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
+    /// Runs factorizations and solves in the AVX2-compiled copy when `on` and the CPU has
+    /// AVX2, else in the baseline one (the default is AVX2 where available). Both give the
+    /// same bits: Rust never contracts a * b + c into an FMA, and the wider vectors only
+    /// compute independent entries at once.
+    pub fn set_simd(&mut self, on: bool) {
+        self.simd = on && avx2_available();
+    }
+
+    /// Whether factorizations and solves run in the AVX2-compiled copy.
+    pub fn simd(&self) -> bool {
+        self.simd
+    }
+
+    /// The factorization, inlined into both the baseline and the AVX2 entry point.
+    #[inline(always)]
+    fn factorize_body(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
         self.factorized = false;
         let finite = |a: &[f64]| {
             // x * 0 is NaN for NaN and +-inf; four independent sums vectorize.
@@ -840,7 +862,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
         Ok(inertia)
     }
 
-    fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
+    /// The solve, inlined into both entry points.
+    #[inline(always)]
+    fn solve_body(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
         if !self.factorized {
             return;
         }
@@ -942,7 +966,51 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
         }
     }
 
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn factorize_avx2(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+        self.factorize_body(v)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn solve_avx2(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
+        self.solve_body(rhs_x, rhs_y)
+    }
+}
+
+impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt<NX, NU, NZ> {
+    fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2 (`avx2_available`).
+            return unsafe { self.factorize_avx2(v) };
+        }
+        self.factorize_body(v)
+    }
+
+    fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: as in `factorize`.
+            return unsafe { self.solve_avx2(rhs_x, rhs_y) };
+        }
+        self.solve_body(rhs_x, rhs_y)
+    }
+
     fn wants_dual_regularization(&self) -> bool {
+        false
+    }
+}
+
+/// The CPU runs AVX2 code (checked once per backend, at setup; never on the hot path).
+fn avx2_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
         false
     }
 }
@@ -950,6 +1018,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
 /// Inverse of a small matrix by Gauss-Jordan elimination with partial pivoting; `None`
 /// when a pivot is below 1e-13 of the largest entry (numerically singular). Works on the
 /// transpose, so that the row operations are operations on contiguous columns.
+#[inline(always)]
 fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
     let scale = a.amax();
     if scale.is_nan() || scale <= 0.0 || !scale.is_finite() {
@@ -1000,6 +1069,7 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
 /// [[A^-1, 0], [-B A^-1, I]]: the implicit-Euler dynamics Jacobian E = I - ds df/dx has
 /// them for s and t (no state depends on either), so only the leading 7 x 7 block is
 /// inverted ([`gauss_jordan`]). Any other shape goes to [`invert`].
+#[inline(always)]
 fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
     const K: usize = 7;
     if D != K + 2 || !(K..D).all(|c| (0..D).all(|r| e[(r, c)] == if r == c { 1.0 } else { 0.0 })) {
@@ -1033,6 +1103,7 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
 /// Inverse of a small row-major matrix by Gauss-Jordan elimination with partial pivoting
 /// on the augmented rows [A | I] (fixed-length row operations, so they vectorize); `None`
 /// when a pivot is NaN or at most `tiny` in magnitude.
+#[inline(always)]
 fn gauss_jordan<const K: usize>(mut a: [[f64; K]; K], tiny: f64) -> Option<[[f64; K]; K]> {
     let mut b: [[f64; K]; K] =
         std::array::from_fn(|r| std::array::from_fn(|c| f64::from(u8::from(r == c))));
@@ -1069,7 +1140,7 @@ fn gauss_jordan<const K: usize>(mut a: [[f64; K]; K], tiny: f64) -> Option<[[f64
 
 /// a b for small column-major matrices, as axpys over contiguous columns (zeros of b
 /// skipped).
-#[inline]
+#[inline(always)]
 fn mul_nn<const R: usize, const K: usize, const C: usize>(
     a: &SMatrix<f64, R, K>,
     b: &SMatrix<f64, K, C>,
@@ -1089,7 +1160,7 @@ fn mul_nn<const R: usize, const K: usize, const C: usize>(
 }
 
 /// a^T b for small column-major matrices, as dots of contiguous columns.
-#[inline]
+#[inline(always)]
 fn mul_tn<const R: usize, const K: usize, const C: usize>(
     a: &SMatrix<f64, K, R>,
     b: &SMatrix<f64, K, C>,
@@ -1108,7 +1179,7 @@ fn mul_tn<const R: usize, const K: usize, const C: usize>(
 }
 
 /// Copies the lower triangle's average into both triangles.
-#[inline]
+#[inline(always)]
 fn symmetrize<const D: usize>(a: &mut SMatrix<f64, D, D>) {
     for c in 0..D {
         for r in c + 1..D {
@@ -1121,6 +1192,7 @@ fn symmetrize<const D: usize>(a: &mut SMatrix<f64, D, D>) {
 
 /// LDL^T of a symmetric matrix without pivoting: returns (unit lower L, D, number of
 /// negative pivots). A zero or non-finite pivot is a singular matrix.
+#[inline(always)]
 fn ldlt_factor<const D: usize>(
     a: &SMatrix<f64, D, D>,
 ) -> Result<(SMatrix<f64, D, D>, SVector<f64, D>, usize), KktError> {
@@ -1151,7 +1223,7 @@ fn ldlt_factor<const D: usize>(
 }
 
 /// Solves (L D L^T) x = b in place for a vector.
-#[inline]
+#[inline(always)]
 fn ldlt_solve_vec<const D: usize>(
     l: &SMatrix<f64, D, D>,
     d: &SVector<f64, D>,
@@ -1173,6 +1245,7 @@ fn ldlt_solve_vec<const D: usize>(
 }
 
 /// Solves (L D L^T) X = B in place, column by column.
+#[inline(always)]
 fn ldlt_solve_cols<const D: usize, const C: usize>(
     l: &SMatrix<f64, D, D>,
     d: &SVector<f64, D>,

@@ -99,6 +99,18 @@ fn system<const N: usize>(
 }
 
 /// K [x; y] in full (both triangles).
+impl System {
+    /// The KKT values as the backends take them.
+    fn values(&self) -> KktValues<'_> {
+        KktValues {
+            hess: &self.hess,
+            jac: &self.jac,
+            primal_diag: &self.dx,
+            dual_diag: &self.dc,
+        }
+    }
+}
+
 fn matvec(s: &System, x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let mut ox = vec![0.0; s.n];
     let mut oy = vec![0.0; s.m];
@@ -148,12 +160,7 @@ fn check_same_steps(initial: InitialState, delta_c: f64, seed: u64) {
     let mut rng = Rng(seed);
     for trial in 0..3 {
         let s = system(&mut nlp, &mut rng, delta_c, false);
-        let values = KktValues {
-            hess: &s.hess,
-            jac: &s.jac,
-            primal_diag: &s.dx,
-            dual_diag: &s.dc,
-        };
+        let values = s.values();
         let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
         // Its LDL^T without pivoting needs a few refinement steps to be a reference.
         sparse.set_refine_steps(5);
@@ -293,12 +300,7 @@ fn inertia_matches_dense_eigenvalues() {
         let mut rng = Rng(seed);
         for trial in 0..4 {
             let s = system(&mut nlp, &mut rng, 1e-8, true);
-            let values = KktValues {
-                hess: &s.hess,
-                jac: &s.jac,
-                primal_diag: &s.dx,
-                dual_diag: &s.dc,
-            };
+            let values = s.values();
             let mut ric = riccati_for(&structure, &s);
             let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
             let (pos, neg, zero) = dense_inertia(&s);
@@ -433,12 +435,7 @@ fn steps_match_dense_solve() {
                 *v = 1e10;
             }
         }
-        let values = KktValues {
-            hess: &s.hess,
-            jac: &s.jac,
-            primal_diag: &s.dx,
-            dual_diag: &s.dc,
-        };
+        let values = s.values();
         let mut ric = riccati_for(&structure, &s);
         ric.factorize(&values).unwrap();
         let bx: Vec<f64> = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
@@ -493,12 +490,7 @@ fn singular_dynamics_jacobian_falls_back_to_sparse() {
             }
         }
     }
-    let values = KktValues {
-        hess: &s.hess,
-        jac: &s.jac,
-        primal_diag: &s.dx,
-        dual_diag: &s.dc,
-    };
+    let values = s.values();
     let mut ric = riccati_for(&structure, &s);
     assert_eq!(ric.factorize(&values), Err(KktError::Unsupported));
 
@@ -540,12 +532,7 @@ fn simd_and_baseline_copies_agree_bit_for_bit() {
     let mut rng = Rng(23);
     for (trial, delta_c) in [0.0, 1e-10, 1.0].into_iter().enumerate() {
         let s = system(&mut nlp, &mut rng, delta_c, false);
-        let values = KktValues {
-            hess: &s.hess,
-            jac: &s.jac,
-            primal_diag: &s.dx,
-            dual_diag: &s.dc,
-        };
+        let values = s.values();
         let bx: Vec<f64> = (0..s.n).map(|_| 2.0 * rng.next() - 1.0).collect();
         let by: Vec<f64> = (0..s.m).map(|_| 2.0 * rng.next() - 1.0).collect();
         let mut out = Vec::new();

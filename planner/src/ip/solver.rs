@@ -541,7 +541,7 @@ impl<K: KktSolver> Solver<K> {
         info.status = final_status;
         info.iterations = iter;
         info.objective = self.ws.f;
-        info.max_violation = self.max_violation();
+        info.max_violation = max_violation(&self.ws);
         info.dual_inf = err.inf_du / err.s_d;
         info.compl = err.compl / err.s_c;
         info.mu = mu;
@@ -607,7 +607,7 @@ impl<K: KktSolver> Solver<K> {
         nlp.eval_g(&ws.w[..n], &mut ws.g);
         times.evaluation += te.elapsed().as_secs_f64();
         info.evaluations += 1;
-        info.initial_violation = start_violation(ws);
+        info.initial_violation = max_violation(ws);
         for i in 0..m {
             ws.w[n + i] = if ws.is_eq[i] { ws.g_l[i] } else { ws.g[i] };
         }
@@ -642,7 +642,7 @@ impl<K: KktSolver> Solver<K> {
             info.status = Status::InvalidInput;
             return false;
         }
-        info.start_violation = start_violation(ws);
+        info.start_violation = max_violation(ws);
         residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g, &ws.w, &mut ws.c);
         true
     }
@@ -690,19 +690,6 @@ impl<K: KktSolver> Solver<K> {
         nlp.eval_jac_g(&ws.w[..n], &mut ws.jac);
         *evals += 1;
         residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g, &ws.w, &mut ws.c);
-    }
-
-    /// Max violation of the original constraints and variable bounds at the current x.
-    fn max_violation(&self) -> f64 {
-        let ws = &self.ws;
-        let mut v: f64 = 0.0;
-        for j in 0..ws.n {
-            v = v.max(ws.lo_orig[j] - ws.w[j]).max(ws.w[j] - ws.hi_orig[j]);
-        }
-        for i in 0..ws.m {
-            v = v.max(ws.g_l[i] - ws.g[i]).max(ws.g[i] - ws.g_u[i]);
-        }
-        v
     }
 
     /// Projected gradient of 0.5 ||c||^2 over w (inf-norm): zero at a stationary point of
@@ -1753,19 +1740,17 @@ fn le(a: f64, b: f64, base: f64) -> bool {
     a - b <= 10.0 * f64::EPSILON * base.abs().max(1.0)
 }
 
-/// Largest violation of the original variable bounds and constraint bounds at w with the
+/// Max violation of the original variable bounds and constraint bounds at w, with the
 /// constraint values in `g` (NaN entries are skipped by `max`, infinities kept).
-fn start_violation(ws: &Workspace) -> f64 {
-    let mut viol: f64 = 0.0;
+fn max_violation(ws: &Workspace) -> f64 {
+    let mut v: f64 = 0.0;
     for j in 0..ws.n {
-        viol = viol
-            .max(ws.lo_orig[j] - ws.w[j])
-            .max(ws.w[j] - ws.hi_orig[j]);
+        v = v.max(ws.lo_orig[j] - ws.w[j]).max(ws.w[j] - ws.hi_orig[j]);
     }
     for i in 0..ws.m {
-        viol = viol.max(ws.g_l[i] - ws.g[i]).max(ws.g[i] - ws.g_u[i]);
+        v = v.max(ws.g_l[i] - ws.g[i]).max(ws.g[i] - ws.g_u[i]);
     }
-    viol
+    v
 }
 
 fn norm1(v: &[f64]) -> f64 {

@@ -1015,54 +1015,17 @@ fn avx2_available() -> bool {
     }
 }
 
-/// Inverse of a small matrix by Gauss-Jordan elimination with partial pivoting; `None`
-/// when a pivot is below 1e-13 of the largest entry (numerically singular). Works on the
-/// transpose, so that the row operations are operations on contiguous columns.
+/// Inverse of a small matrix ([`gauss_jordan`]); `None` when a pivot is below 1e-13 of the
+/// largest entry (numerically singular) or the matrix is not finite.
 #[inline(always)]
 fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
     let scale = a.amax();
-    if scale.is_nan() || scale <= 0.0 || !scale.is_finite() {
+    if !scale.is_finite() {
         return None;
     }
-    let mut t = a.transpose();
-    let mut inv = SMatrix::<f64, D, D>::identity();
-    for c in 0..D {
-        let mut p = c;
-        let mut best = t[(c, c)].abs();
-        for j in c + 1..D {
-            if t[(c, j)].abs() > best {
-                best = t[(c, j)].abs();
-                p = j;
-            }
-        }
-        if best.is_nan() || best <= 1e-13 * scale {
-            return None;
-        }
-        if p != c {
-            t.swap_columns(p, c);
-            inv.swap_columns(p, c);
-        }
-        let piv = 1.0 / t[(c, c)];
-        for i in c + 1..D {
-            t[(i, c)] *= piv;
-        }
-        for i in 0..D {
-            inv[(i, c)] *= piv;
-        }
-        for j in 0..D {
-            let f = t[(c, j)];
-            if j != c && f != 0.0 {
-                // Rows <= c of the transpose are done: only i > c still change.
-                for i in c + 1..D {
-                    t[(i, j)] -= f * t[(i, c)];
-                }
-                for i in 0..D {
-                    inv[(i, j)] -= f * inv[(i, c)];
-                }
-            }
-        }
-    }
-    Some(inv.transpose())
+    let rows: [[f64; D]; D] = std::array::from_fn(|r| std::array::from_fn(|c| a[(r, c)]));
+    let inv = gauss_jordan(rows, 1e-13 * scale)?;
+    Some(SMatrix::from_fn(|r, c| inv[r][c]))
 }
 
 /// Inverse of E = [[A, 0], [B, I]] whose trailing columns are unit vectors, as
@@ -1076,7 +1039,7 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
         return invert(e);
     }
     let scale = e.amax();
-    if scale.is_nan() || !scale.is_finite() {
+    if !scale.is_finite() {
         return None;
     }
     let a: [[f64; K]; K] = std::array::from_fn(|r| std::array::from_fn(|c| e[(r, c)]));

@@ -9,6 +9,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod config;
+pub mod cpu;
 pub mod guess;
 pub mod ip;
 pub mod model;

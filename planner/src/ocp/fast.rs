@@ -178,6 +178,7 @@ fn tire_d1(p: &VehicleParams, ti: &[f64; NT]) -> ([D1<NT>; 4], [D1<NT>; 2]) {
 
 /// Spatial derivatives f(x, u) (physical) with their gradients over the defect inputs
 /// [r, V, beta, V_wr, dFz, e, dpsi, delta, T_comb, T_bf] (row s: constant 1).
+#[inline(always)]
 pub fn defect_jacobian(
     p: &VehicleParams,
     x: &[f64; NX],
@@ -200,6 +201,7 @@ pub fn defect_jacobian(
 
 /// Saturation values [front, rear] (physical, before the row scaling) with their gradients
 /// over the tire inputs [r, V, beta, V_wr, dFz, delta, T_bf].
+#[inline(always)]
 pub fn saturation_jacobian(p: &VehicleParams, x: &[f64; NX], u: &[f64; NU]) -> [D1<NT>; 2] {
     tire_d1(p, &tire_inputs(x, u)).1
 }
@@ -215,6 +217,7 @@ fn slips_d2(p: &VehicleParams, ti: &[f64; NT]) -> [D2<NT>; 3] {
 
 /// Second-order jet of `w[0] sat_f + w[1] sat_r` (physical saturation values) over the tire
 /// inputs [r, V, beta, V_wr, dFz, delta, T_bf].
+#[inline(always)]
 pub fn saturation_hessian(p: &VehicleParams, x: &[f64; NX], u: &[f64; NU], w: [f64; 2]) -> D2<NT> {
     let ti = tire_inputs(x, u);
     let [taf, tar, kr] = slips_d2(p, &ti);
@@ -238,6 +241,7 @@ pub fn saturation_hessian(p: &VehicleParams, x: &[f64; NX], u: &[f64; NU], w: [f
 /// Second-order jet of `phi = sum_{i != s} w[i] f_i(x, u)` (f = physical spatial
 /// derivatives, `w[ix::S]` ignored) over the defect inputs
 /// [r, V, beta, V_wr, dFz, e, dpsi, delta, T_comb, T_bf].
+#[inline(always)]
 pub fn defect_hessian(
     p: &VehicleParams,
     x: &[f64; NX],

@@ -206,6 +206,7 @@ pub fn saturation_eval(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out
 }
 
 /// Saturation Jacobian values in [`saturation_pattern`] order.
+#[inline(never)]
 pub fn saturation_jac(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
     let (x, u) = sat_point(lay, k, z, seed1::<SATURATION_INPUTS>);
     let s = saturation(p, &x, &u);
@@ -219,6 +220,7 @@ pub fn saturation_jac(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out:
 
 /// Saturation Jacobian values in [`saturation_pattern`] order, by the fast structured path
 /// of [`crate::ocp::fast`].
+#[inline(always)]
 pub fn saturation_jac_fast(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
     let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
     let s = fast::saturation_jacobian(p, &x, &u);
@@ -231,6 +233,7 @@ pub fn saturation_jac_fast(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64],
 
 /// Hessian of lambda_f g_f + lambda_r g_r in [`saturation_hess_pattern`] order by the fast
 /// structured path of [`crate::ocp::fast`] (overwrites `out`).
+#[inline(always)]
 pub fn saturation_hess_fast(
     p: &VehicleParams,
     lay: &Layout,
@@ -265,6 +268,7 @@ pub fn saturation_hess_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usi
 
 /// Hessian of lambda_f g_f + lambda_r g_r (the two saturation rows of interval k), in
 /// [`saturation_hess_pattern`] order (overwrites `out`).
+#[inline(never)]
 pub fn saturation_hess(
     p: &VehicleParams,
     lay: &Layout,

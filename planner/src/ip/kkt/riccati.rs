@@ -436,7 +436,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             bz: vec![SVector::zeros(); big + 1],
             bl: vec![SVector::zeros(); big + 1],
             factorized: false,
-            simd: avx2_available(),
+            simd: crate::cpu::avx2_available(),
         })
     }
 
@@ -698,8 +698,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             zero: 0,
         };
         let mut p: SMatrix<f64, NX, NX> = self.w_block(big).fixed_view::<NX, NX>(0, 0).into_owned();
-        let mut y: SMatrix<f64, NZ, NX> =
-            self.x_block(big - 1).fixed_view::<NX, NZ>(0, 0).transpose();
+        // Y^T: the coupling of z_k to x_{k+1}, stored transposed (NX x NZ, contiguous rows
+        // of the X block).
+        let mut yt: SMatrix<f64, NX, NZ> = self
+            .x_block(big - 1)
+            .fixed_view::<NX, NZ>(0, 0)
+            .into_owned();
         let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
         for k in (0..big).rev() {
             let mut q = self.w_block(k);
@@ -712,8 +716,23 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 None
             };
             let fac = &mut self.factors[k];
-            fac.y = y;
             fac.j = j;
+            let zero_delta = self.delta[k].iter().all(|&d| d == 0.0);
+            let fast = zero_delta && minus_identity_head(&j);
+            if fast {
+                fast_stage(
+                    fac,
+                    &mut p,
+                    &mut yt,
+                    &mut pending,
+                    &e,
+                    &mut q,
+                    prev.as_ref(),
+                    &mut inertia,
+                )?;
+                continue;
+            }
+            fac.y = yt.transpose();
             Self::eliminate_pair(fac, &p, &e, &self.delta[k], &mut q, &mut inertia)?;
             // u_k.
             let quu: SMatrix<f64, NU, NU> = q.fixed_view::<NU, NU>(NX, NX).into_owned();
@@ -731,7 +750,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             if let Some(xc) = prev {
                 // Y = X_{k-1}[x rows]^T - R g and W_{k-1} -= R Q_uu^-1 R^T.
                 fac.r = xc.fixed_view::<NU, NZ>(NX, 0).transpose();
-                y = xc.fixed_view::<NX, NZ>(0, 0).transpose() - fac.r * g;
+                yt = xc.fixed_view::<NX, NZ>(0, 0) - g.tr_mul(&fac.r.transpose());
                 let mut rt = fac.r.transpose();
                 ldlt_solve_cols(&l, &d, &mut rt);
                 pending = fac.r * rt;
@@ -829,7 +848,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     /// same bits: Rust never contracts a * b + c into an FMA, and the wider vectors only
     /// compute independent entries at once.
     pub fn set_simd(&mut self, on: bool) {
-        self.simd = on && avx2_available();
+        self.simd = on && crate::cpu::avx2_available();
     }
 
     /// Whether factorizations and solves run in the AVX2-compiled copy.
@@ -1003,16 +1022,208 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
     }
 }
 
-/// The CPU runs AVX2 code (checked once per backend, at setup; never on the hot path).
-fn avx2_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
+/// J_k = [-I, G] (the implicit-Euler dynamics Jacobian with respect to z_k).
+#[inline(always)]
+fn minus_identity_head<const NX: usize, const NZ: usize>(j: &SMatrix<f64, NX, NZ>) -> bool {
+    let cols = &j.data.0;
+    let mut ok = true;
+    for (c, col) in cols.iter().take(NX).enumerate() {
+        for (r, &v) in col.iter().enumerate() {
+            ok &= v == if r == c { -1.0 } else { 0.0 };
+        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+    ok
+}
+
+/// One stage of the backward sweep in its common case, Delta_k = 0 and J_k = [-I, G]
+/// (implicit Euler): the pair step of [`RiccatiKkt::eliminate_pair`] and the u_k step,
+/// written over column arrays so that every product is a run of contiguous column updates
+/// and only the lower triangles of symmetric results are formed. On entry `q` holds
+/// W_k - pending, `p` and `yt` the state from stage k + 1; on exit they hold P_k, Y_{k-1}^T
+/// and the pending update of W_{k-1}.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
+    fac: &mut StageFactor<NX, NU, NZ>,
+    p: &mut SMatrix<f64, NX, NX>,
+    yt: &mut SMatrix<f64, NX, NZ>,
+    pending: &mut SMatrix<f64, NZ, NZ>,
+    e: &SMatrix<f64, NX, NX>,
+    q: &mut SMatrix<f64, NZ, NZ>,
+    prev: Option<&SMatrix<f64, NZ, NZ>>,
+    inertia: &mut Inertia,
+) -> Result<(), KktError> {
+    let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
+    let fc = &f.data.0;
+    let ft: [[f64; NX]; NX] = std::array::from_fn(|c| std::array::from_fn(|r| fc[r][c]));
+    // P^ = F^T (P F): its pair has inertia (NX, NX).
+    let mut pf = [[0.0; NX]; NX];
+    mm_acc(&mut pf, &p.data.0, fc, 1.0);
+    let mut phat = [[0.0; NX]; NX];
+    mm_acc(&mut phat, &ft, &pf, 1.0);
+    sym_lower(&mut phat);
+    inertia.positive += NX;
+    inertia.negative += NX;
+    // C^^T = F^T Y^T (Y^T is zero in the columns of z_k that do not couple to x_{k+1}).
+    let mut ct = [[0.0; NX]; NZ];
+    mm_acc_skip_zeros(&mut ct, &ft, &yt.data.0);
+    let jc = &fac.j.data.0;
+    let g: [[f64; NX]; NU] = std::array::from_fn(|c| jc[NX + c]);
+    // Q = W~ + [C^, -C^ G] + [C^, -C^ G]^T + [-I, G]^T P^ [-I, G], blockwise.
+    let mut s = phat;
+    for (c, col) in s.iter_mut().enumerate() {
+        for (r, v) in col.iter_mut().enumerate() {
+            *v += ct[r][c];
+        }
     }
+    let mut sg = [[0.0; NX]; NU];
+    mm_acc(&mut sg, &s, &g, 1.0);
+    let mut pg = [[0.0; NX]; NU];
+    mm_acc(&mut pg, &phat, &g, 1.0);
+    let qc = &mut q.data.0;
+    for c in 0..NX {
+        for r in c..NX {
+            qc[c][r] += phat[c][r] + (ct[c][r] + ct[r][c]);
+        }
+    }
+    for c in 0..NU {
+        for r in 0..NX {
+            qc[NX + c][r] += ct[NX + c][r] - sg[c][r];
+        }
+        for r in c..NU {
+            let gpg = dot(&g[r], &pg[c]);
+            let cg = dot(&ct[NX + r], &g[c]) + dot(&ct[NX + c], &g[r]);
+            qc[NX + c][NX + r] += gpg - cg;
+        }
+    }
+    // u_k: Q_uu = L D L^T, g = Q_uu^-1 Q_ux, P_k = Q_xx - Q_xu g.
+    let quu = SMatrix::<f64, NU, NU>::from_fn(|r, c| qc[NX + c.min(r)][NX + c.max(r)]);
+    let (l, d, neg) = ldlt_factor(&quu)?;
+    inertia.positive += NU - neg;
+    inertia.negative += neg;
+    let qxu: [[f64; NX]; NU] = std::array::from_fn(|k| std::array::from_fn(|r| qc[NX + k][r]));
+    let mut gm = [[0.0; NU]; NX];
+    for (c, gc) in gm.iter_mut().enumerate() {
+        let mut v = SVector::<f64, NU>::from_fn(|k, _| qxu[k][c]);
+        ldlt_solve_vec(&l, &d, &mut v);
+        *gc = v.data.0[0];
+    }
+    let mut pn: [[f64; NX]; NX] = std::array::from_fn(|c| std::array::from_fn(|r| qc[c][r]));
+    mm_acc(&mut pn, &qxu, &gm, -1.0);
+    sym_lower(&mut pn);
+    p.data.0 = pn;
+    fac.f = f;
+    fac.zero_delta = true;
+    fac.lambda_first = false;
+    fac.a22.data.0 = phat.map(|col| col.map(|v| -v));
+    fac.y = yt.transpose();
+    fac.quu_l = l;
+    fac.quu_d = d;
+    fac.q_ux = SMatrix::from_fn(|k, c| qxu[k][c]);
+    let Some(xc) = prev else {
+        fac.r = SMatrix::zeros();
+        return Ok(());
+    };
+    // R = X_{k-1}[u rows]^T, Y_{k-1}^T = X_{k-1}[x rows] - g^T R^T and
+    // W_{k-1} -= R Q_uu^-1 R^T.
+    let xcc = &xc.data.0;
+    let rc: [[f64; NZ]; NU] = std::array::from_fn(|k| std::array::from_fn(|i| xcc[i][NX + k]));
+    let gt: [[f64; NX]; NU] = std::array::from_fn(|k| std::array::from_fn(|j| gm[j][k]));
+    let mut ytn: [[f64; NX]; NZ] = std::array::from_fn(|i| std::array::from_fn(|j| xcc[i][j]));
+    mm_acc_bt(&mut ytn, &gt, &rc, -1.0);
+    yt.data.0 = ytn;
+    let mut rt = [[0.0; NU]; NZ];
+    for (i, col) in rt.iter_mut().enumerate() {
+        let mut v = SVector::<f64, NU>::from_fn(|k, _| rc[k][i]);
+        ldlt_solve_vec(&l, &d, &mut v);
+        *col = v.data.0[0];
+    }
+    let mut pd = [[0.0; NZ]; NZ];
+    mm_acc(&mut pd, &rc, &rt, 1.0);
+    sym_lower(&mut pd);
+    pending.data.0 = pd;
+    fac.r.data.0 = rc;
+    Ok(())
+}
+
+/// out += sign a b for column arrays (out R x C, a R x K, b K x C): each term is an axpy of a
+/// contiguous column of a, accumulated in registers. `sign` is +-1, so exact.
+#[inline(always)]
+fn mm_acc<const R: usize, const K: usize, const C: usize>(
+    out: &mut [[f64; R]; C],
+    a: &[[f64; R]; K],
+    b: &[[f64; K]; C],
+    sign: f64,
+) {
+    for (oc, bc) in out.iter_mut().zip(b) {
+        let mut acc = *oc;
+        for (ak, &bkc) in a.iter().zip(bc) {
+            let s = sign * bkc;
+            for (o, &x) in acc.iter_mut().zip(ak) {
+                *o += x * s;
+            }
+        }
+        *oc = acc;
+    }
+}
+
+/// out += a b as [`mm_acc`], skipping the zero entries of b (whole zero columns of Y^T).
+#[inline(always)]
+fn mm_acc_skip_zeros<const R: usize, const K: usize, const C: usize>(
+    out: &mut [[f64; R]; C],
+    a: &[[f64; R]; K],
+    b: &[[f64; K]; C],
+) {
+    for (oc, bc) in out.iter_mut().zip(b) {
+        let mut acc = *oc;
+        for (ak, &bkc) in a.iter().zip(bc) {
+            if bkc != 0.0 {
+                for (o, &x) in acc.iter_mut().zip(ak) {
+                    *o += x * bkc;
+                }
+            }
+        }
+        *oc = acc;
+    }
+}
+
+/// out += sign a b with b given as its transpose bt (column arrays, K x C matrix b).
+#[inline(always)]
+fn mm_acc_bt<const R: usize, const K: usize, const C: usize>(
+    out: &mut [[f64; R]; C],
+    a: &[[f64; R]; K],
+    bt: &[[f64; C]; K],
+    sign: f64,
+) {
+    for (c, oc) in out.iter_mut().enumerate() {
+        let mut acc = *oc;
+        for (ak, btk) in a.iter().zip(bt) {
+            let s = sign * btk[c];
+            for (o, &x) in acc.iter_mut().zip(ak) {
+                *o += x * s;
+            }
+        }
+        *oc = acc;
+    }
+}
+
+/// Copies the lower triangle of a column array into its upper one.
+#[inline(always)]
+fn sym_lower<const D: usize>(a: &mut [[f64; D]; D]) {
+    for c in 0..D {
+        for r in c + 1..D {
+            a[r][c] = a[c][r];
+        }
+    }
+}
+
+#[inline(always)]
+fn dot<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+    let mut acc = 0.0;
+    for (&x, &y) in a.iter().zip(b) {
+        acc += x * y;
+    }
+    acc
 }
 
 /// Inverse of a small matrix ([`gauss_jordan`]); `None` when a pivot is below 1e-13 of the
@@ -1042,25 +1253,68 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     if !scale.is_finite() {
         return None;
     }
-    let a: [[f64; K]; K] = std::array::from_fn(|r| std::array::from_fn(|c| e[(r, c)]));
-    let ai = gauss_jordan(a, 1e-13 * scale)?;
+    // Rows [A | I | 0] padded to 16 entries: four 4-wide vectors per row operation.
+    let mut m = [[0.0; 16]; K];
+    for (r, row) in m.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().take(K).enumerate() {
+            *v = e[(r, c)];
+        }
+        row[K + r] = 1.0;
+    }
+    gauss_jordan_rows(&mut m, 1e-13 * scale)?;
     let mut out = SMatrix::<f64, D, D>::zeros();
-    for (r, row) in ai.iter().enumerate() {
-        for (c, &v) in row.iter().enumerate() {
-            out[(r, c)] = v;
+    for (r, row) in m.iter().enumerate() {
+        for c in 0..K {
+            out[(r, c)] = row[K + c];
         }
     }
     for r in K..D {
         for c in 0..K {
             let mut acc = 0.0;
-            for (j, row) in ai.iter().enumerate() {
-                acc += e[(r, j)] * row[c];
+            for (j, row) in m.iter().enumerate() {
+                acc += e[(r, j)] * row[K + c];
             }
             out[(r, c)] = -acc;
         }
         out[(r, r)] = 1.0;
     }
     Some(out)
+}
+
+/// Gauss-Jordan elimination with partial pivoting on K augmented rows of width W (the
+/// leading K columns are the matrix; the same operations as [`gauss_jordan`], so the same
+/// bits); `None` when a pivot is NaN or at most `tiny` in magnitude.
+#[inline(always)]
+fn gauss_jordan_rows<const K: usize, const W: usize>(
+    m: &mut [[f64; W]; K],
+    tiny: f64,
+) -> Option<()> {
+    for c in 0..K {
+        let mut p = c;
+        let mut best = m[c][c].abs();
+        for (r, row) in m.iter().enumerate().skip(c + 1) {
+            if row[c].abs() > best {
+                best = row[c].abs();
+                p = r;
+            }
+        }
+        if best.is_nan() || best <= tiny {
+            return None;
+        }
+        m.swap(p, c);
+        let piv = 1.0 / m[c][c];
+        let pr = m[c].map(|v| v * piv);
+        m[c] = pr;
+        for (r, row) in m.iter_mut().enumerate() {
+            if r != c {
+                let f = row[c];
+                for (v, &x) in row.iter_mut().zip(&pr) {
+                    *v -= f * x;
+                }
+            }
+        }
+    }
+    Some(())
 }
 
 /// Inverse of a small row-major matrix by Gauss-Jordan elimination with partial pivoting

@@ -85,6 +85,7 @@ impl DefectScheme for ImplicitEuler {
         }
     }
 
+    #[inline(always)]
     fn jac(&self, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
         if cx.oracle {
             return jac_oracle(cx, k, z, vals);
@@ -117,6 +118,7 @@ impl DefectScheme for ImplicitEuler {
         }
     }
 
+    #[inline(always)]
     fn hess(&self, cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
         if cx.oracle {
             return hess_oracle(cx, k, z, lambda, vals);
@@ -146,6 +148,7 @@ const IN_NOMINAL: [f64; NIN] = [
 
 /// Defect Jacobian of interval k by num-dual first-order duals through the generic model
 /// (the oracle).
+#[inline(never)]
 fn jac_oracle(cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
     let lay = &cx.layout;
     let (x, u) = point(lay, k, z, seed1::<NIN>);
@@ -171,6 +174,7 @@ fn jac_oracle(cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
 
 /// Hessian of `lambda^T defect_k` by num-dual second-order duals through the generic model
 /// (the oracle).
+#[inline(never)]
 fn hess_oracle(cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
     let lay = &cx.layout;
     let (x, u) = point(lay, k, z, seed2::<NIN>);

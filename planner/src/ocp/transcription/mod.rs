@@ -198,6 +198,8 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
     hess_defect_slots: Vec<usize>,
     hess_sat_slots: Vec<usize>,
     scratch: Vec<f64>,
+    /// Evaluate derivatives in the AVX2-compiled copy ([`crate::cpu`]; same bits).
+    simd: bool,
     g_buf: Vec<f64>,
     x_l: Vec<f64>,
     x_u: Vec<f64>,
@@ -388,6 +390,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             hess_defect_slots,
             hess_sat_slots,
             scratch: vec![0.0; max_block],
+            simd: crate::cpu::avx2_available(),
             g_buf: vec![0.0; m],
             x_l: vec![0.0; n],
             x_u: vec![0.0; n],
@@ -718,26 +721,12 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
     }
 
     fn eval_jac_g(&mut self, x: &[f64], vals: &mut [f64]) {
-        let cx = self.context();
-        let lay = &self.layout;
-        let p = &self.spec.vehicle;
-        vals[..self.n_init].fill(1.0);
-        for (k, st) in self.stages.iter().enumerate() {
-            let len = self.jac_defect_len[k];
-            self.scheme
-                .jac(&cx, k, x, &mut vals[st.jac_defect..st.jac_defect + len]);
-            friction_jac(p, &mut vals[st.jac_friction..]);
-            if self.spec.enforce_tire_saturation {
-                if cx.oracle {
-                    saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
-                } else {
-                    saturation_jac_fast(p, lay, k, x, &mut vals[st.jac_sat..]);
-                }
-            }
-            if k >= 1 {
-                rate_jac(p, &mut vals[st.jac_rate..]);
-            }
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2.
+            return unsafe { self.eval_jac_avx2(x, vals) };
         }
+        self.eval_jac_body(x, vals)
     }
 
     /// Hessian of `obj_factor f + lambda^T g`; f and all rows but the defects and the
@@ -769,6 +758,19 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
     }
 
     fn eval_hess(&mut self, x: &[f64], _obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2.
+            return unsafe { self.eval_hess_avx2(x, lambda, vals) };
+        }
+        self.eval_hess_body(x, lambda, vals)
+    }
+}
+
+impl<S: DefectScheme, const N: usize> Transcription<S, N> {
+    /// Hessian values, inlined into both the baseline and the AVX2 entry point.
+    #[inline(always)]
+    fn eval_hess_body(&mut self, x: &[f64], lambda: &[f64], vals: &mut [f64]) {
         vals.fill(0.0);
         let cx = SchemeContext {
             vehicle: &self.spec.vehicle,
@@ -808,5 +810,47 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
                 }
             }
         }
+    }
+    /// Jacobian values, inlined into both the baseline and the AVX2 entry point.
+    #[inline(always)]
+    fn eval_jac_body(&mut self, x: &[f64], vals: &mut [f64]) {
+        let cx = self.context();
+        let lay = &self.layout;
+        let p = &self.spec.vehicle;
+        vals[..self.n_init].fill(1.0);
+        for (k, st) in self.stages.iter().enumerate() {
+            let len = self.jac_defect_len[k];
+            self.scheme
+                .jac(&cx, k, x, &mut vals[st.jac_defect..st.jac_defect + len]);
+            friction_jac(p, &mut vals[st.jac_friction..]);
+            if self.spec.enforce_tire_saturation {
+                if cx.oracle {
+                    saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
+                } else {
+                    saturation_jac_fast(p, lay, k, x, &mut vals[st.jac_sat..]);
+                }
+            }
+            if k >= 1 {
+                rate_jac(p, &mut vals[st.jac_rate..]);
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn eval_jac_avx2(&mut self, x: &[f64], vals: &mut [f64]) {
+        self.eval_jac_body(x, vals)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn eval_hess_avx2(&mut self, x: &[f64], lambda: &[f64], vals: &mut [f64]) {
+        self.eval_hess_body(x, lambda, vals)
+    }
+
+    /// Evaluates derivatives in the AVX2-compiled copy when `on` and the CPU has AVX2, else
+    /// in the baseline one (default: AVX2 where available). Both give the same bits.
+    pub fn set_simd(&mut self, on: bool) {
+        self.simd = on && crate::cpu::avx2_available();
     }
 }

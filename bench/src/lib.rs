@@ -76,6 +76,9 @@ impl OvalKkt {
     /// The system, with `eq_reg` (<= 0) on the dual diagonal of equality rows.
     pub fn new(eq_reg: f64) -> Self {
         let (mut nlp, z) = oval_nlp_at_reference();
+        // The baseline evaluation copy (same bits as the AVX2 one): keeps the KKT loops
+        // runnable under valgrind, whose decoder lacks some AVX2 encodings.
+        nlp.set_simd(false);
         let d = nlp.dims();
         let (n, m) = (d.n, d.m);
         let (mut hess_rows, mut hess_cols) = (vec![0; d.nnz_hess], vec![0; d.nnz_hess]);

@@ -162,6 +162,10 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     /// Jacobian entries have distinct targets: assigned, not summed, and the E, J
     /// regions need no zeroing.
     jac_assign: bool,
+    /// Columns of Y_k^T that can be nonzero: entries of z_{k-1} that some Hessian or
+    /// path-row entry couples to z_k (X block columns); the common stage computes
+    /// C^^T = F^T Y^T only there ([`fast_stage`]). On the vehicle OCP: t and the controls.
+    y_live: [bool; NZ],
     rows: Vec<Row>,
     path_rows: Vec<PathRow>,
     path_entries: Vec<PathEntry>,
@@ -202,6 +206,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> std::fmt::Debug for Ricc
             .field("m", &self.m)
             .field("stages", &self.stages)
             .field("path_rows", &self.path_rows.len())
+            .field("path_pairs", &self.path_pairs.len())
+            .field("y_live", &self.y_live)
             .finish()
     }
 }
@@ -400,6 +406,18 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             });
         }
 
+        // X block targets: column (z_{k-1} entry) = offset within the block / NZ.
+        let x_col = |t: u32| ((t as usize).wrapping_sub(x_base) % (NZ * NZ)) / NZ;
+        let in_x = |t: u32| (x_base..e_base).contains(&(t as usize));
+        let mut y_live = [false; NZ];
+        for &t in hess_map
+            .iter()
+            .chain(path_pairs.iter().map(|pp| &pp.target))
+        {
+            if in_x(t) {
+                y_live[x_col(t)] = true;
+            }
+        }
         let dim = 2 * NX;
         let params = Default::default();
         let mem = MemBuffer::new(
@@ -414,6 +432,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             hess_map,
             jac_map,
             jac_assign,
+            y_live,
             rows,
             path_w: vec![0.0; path_rows.len()],
             path_vals: vec![0.0; path_entries.len()],
@@ -705,6 +724,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             .fixed_view::<NX, NZ>(0, 0)
             .into_owned();
         let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
+        let y_live = self.y_live;
         for k in (0..big).rev() {
             let mut q = self.w_block(k);
             q -= pending;
@@ -728,6 +748,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                     &e,
                     &mut q,
                     prev.as_ref(),
+                    &y_live,
                     &mut inertia,
                 )?;
                 continue;
@@ -1051,6 +1072,7 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     e: &SMatrix<f64, NX, NX>,
     q: &mut SMatrix<f64, NZ, NZ>,
     prev: Option<&SMatrix<f64, NZ, NZ>>,
+    y_live: &[bool; NZ],
     inertia: &mut Inertia,
 ) -> Result<(), KktError> {
     let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
@@ -1064,22 +1086,41 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     sym_lower(&mut phat);
     inertia.positive += NX;
     inertia.negative += NX;
-    // C^^T = F^T Y^T (Y^T is zero in the columns of z_k that do not couple to x_{k+1}).
+    // C^^T = F^T Y^T, in the columns where Y^T can be nonzero.
     let mut ct = [[0.0; NX]; NZ];
-    mm_acc_skip_zeros(&mut ct, &ft, &yt.data.0);
+    for ((oc, yc), _) in ct
+        .iter_mut()
+        .zip(&yt.data.0)
+        .zip(y_live)
+        .filter(|(_, &l)| l)
+    {
+        let mut acc = [0.0; NX];
+        for (fk, &y) in ft.iter().zip(yc) {
+            for (o, &x) in acc.iter_mut().zip(fk) {
+                *o += x * y;
+            }
+        }
+        *oc = acc;
+    }
+    let y_states_zero = !y_live[..NX].contains(&true);
     let jc = &fac.j.data.0;
     let g: [[f64; NX]; NU] = std::array::from_fn(|c| jc[NX + c]);
-    // Q = W~ + [C^, -C^ G] + [C^, -C^ G]^T + [-I, G]^T P^ [-I, G], blockwise.
-    let mut s = phat;
-    for (c, col) in s.iter_mut().enumerate() {
-        for (r, v) in col.iter_mut().enumerate() {
-            *v += ct[r][c];
-        }
-    }
-    let mut sg = [[0.0; NX]; NU];
-    mm_acc(&mut sg, &s, &g, 1.0);
+    // Q = W~ + [C^, -C^ G] + [C^, -C^ G]^T + [-I, G]^T P^ [-I, G], blockwise; S = P^ + C^_x.
     let mut pg = [[0.0; NX]; NU];
     mm_acc(&mut pg, &phat, &g, 1.0);
+    let sg = if y_states_zero {
+        pg
+    } else {
+        let mut s = phat;
+        for (c, col) in s.iter_mut().enumerate() {
+            for (r, v) in col.iter_mut().enumerate() {
+                *v += ct[r][c];
+            }
+        }
+        let mut sg = [[0.0; NX]; NU];
+        mm_acc(&mut sg, &s, &g, 1.0);
+        sg
+    };
     let qc = &mut q.data.0;
     for c in 0..NX {
         for r in c..NX {
@@ -1161,26 +1202,6 @@ fn mm_acc<const R: usize, const K: usize, const C: usize>(
             let s = sign * bkc;
             for (o, &x) in acc.iter_mut().zip(ak) {
                 *o += x * s;
-            }
-        }
-        *oc = acc;
-    }
-}
-
-/// out += a b as [`mm_acc`], skipping the zero entries of b (whole zero columns of Y^T).
-#[inline(always)]
-fn mm_acc_skip_zeros<const R: usize, const K: usize, const C: usize>(
-    out: &mut [[f64; R]; C],
-    a: &[[f64; R]; K],
-    b: &[[f64; K]; C],
-) {
-    for (oc, bc) in out.iter_mut().zip(b) {
-        let mut acc = *oc;
-        for (ak, &bkc) in a.iter().zip(bc) {
-            if bkc != 0.0 {
-                for (o, &x) in acc.iter_mut().zip(ak) {
-                    *o += x * bkc;
-                }
             }
         }
         *oc = acc;

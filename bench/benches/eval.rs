@@ -38,6 +38,13 @@ fn eval(c: &mut Criterion) {
         group.bench_function("hess", |b| {
             b.iter(|| nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess))
         });
+        // The baseline x86-64 copy of the same code (the default runs the AVX2 copy where
+        // the CPU has it; both give the same bits).
+        nlp.set_simd(false);
+        group.bench_function("hess_baseline_copy", |b| {
+            b.iter(|| nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess))
+        });
+        nlp.set_simd(true);
         group.finish();
 
         // Split of the Hessian cost: the same point without the saturation rows.

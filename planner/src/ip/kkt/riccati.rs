@@ -737,7 +737,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             };
             let fac = &mut self.factors[k];
             fac.j = j;
-            let zero_delta = self.delta[k].iter().all(|&d| d == 0.0);
+            let zero_delta = all_zero(self.delta[k].as_slice());
             let fast = zero_delta && minus_identity_head(&j);
             if fast {
                 fast_stage(
@@ -910,8 +910,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
         let big = self.stages;
         // Gather, the path rows eliminated: r_x += J_r^T r_c,r / |D_c|.
-        for (i, &v) in rhs_x.iter().enumerate() {
-            self.bz[i / NZ][i % NZ] = v;
+        for (b, chunk) in self.bz.iter_mut().zip(rhs_x.chunks(NZ)) {
+            b.as_mut_slice()[..chunk.len()].copy_from_slice(chunk);
         }
         for (r, &v) in rhs_y.iter().enumerate() {
             match self.rows[r] {
@@ -984,8 +984,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             self.bl[k] = lambda;
         }
         // Scatter; path-row multipliers from dy_r = (r_c,r - J_r dx) / D_c.
-        for (i, v) in rhs_x.iter_mut().enumerate() {
-            *v = self.bz[i / NZ][i % NZ];
+        for (chunk, b) in rhs_x.chunks_mut(NZ).zip(&self.bz) {
+            chunk.copy_from_slice(&b.as_slice()[..chunk.len()]);
         }
         for (r, out) in rhs_y.iter_mut().enumerate() {
             *out = match self.rows[r] {
@@ -1228,6 +1228,33 @@ fn mm_acc_bt<const R: usize, const K: usize, const C: usize>(
     }
 }
 
+/// Largest magnitude, NaN when an entry is NaN (so a NaN block is rejected). A plain slice
+/// loop: nalgebra's `amax` went through its generic iterator, 10 instructions per entry.
+#[inline(always)]
+fn amax(a: &[f64]) -> f64 {
+    let mut m = 0.0f64;
+    let mut nan = false;
+    for &v in a {
+        m = m.max(v.abs());
+        nan |= v.is_nan();
+    }
+    if nan {
+        f64::NAN
+    } else {
+        m
+    }
+}
+
+/// Every entry is exactly zero.
+#[inline(always)]
+fn all_zero(a: &[f64]) -> bool {
+    let mut z = true;
+    for &v in a {
+        z &= v == 0.0;
+    }
+    z
+}
+
 /// Copies the lower triangle of a column array into its upper one.
 #[inline(always)]
 fn sym_lower<const D: usize>(a: &mut [[f64; D]; D]) {
@@ -1251,7 +1278,7 @@ fn dot<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
 /// largest entry (numerically singular) or the matrix is not finite.
 #[inline(always)]
 fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
-    let scale = a.amax();
+    let scale = amax(a.as_slice());
     if !scale.is_finite() {
         return None;
     }
@@ -1270,7 +1297,7 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     if D != K + 2 || !(K..D).all(|c| (0..D).all(|r| e[(r, c)] == if r == c { 1.0 } else { 0.0 })) {
         return invert(e);
     }
-    let scale = e.amax();
+    let scale = amax(e.as_slice());
     if !scale.is_finite() {
         return None;
     }

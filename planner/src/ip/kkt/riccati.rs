@@ -1169,13 +1169,15 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     // W_{k-1} -= R Q_uu^-1 R^T.
     let xcc = &xc.data.0;
     let rc: [[f64; NZ]; NU] = std::array::from_fn(|k| std::array::from_fn(|i| xcc[i][NX + k]));
+    // R^T as columns (row i of R per column), for g^T R^T and Q_uu^-1 R^T.
+    let rtc: [[f64; NU]; NZ] = std::array::from_fn(|i| std::array::from_fn(|k| rc[k][i]));
     let gt: [[f64; NX]; NU] = std::array::from_fn(|k| std::array::from_fn(|j| gm[j][k]));
     let mut ytn: [[f64; NX]; NZ] = std::array::from_fn(|i| std::array::from_fn(|j| xcc[i][j]));
-    mm_acc_bt(&mut ytn, &gt, &rc, -1.0);
+    mm_acc(&mut ytn, &gt, &rtc, -1.0);
     yt.data.0 = ytn;
     let mut rt = [[0.0; NU]; NZ];
-    for (i, col) in rt.iter_mut().enumerate() {
-        let mut v = SVector::<f64, NU>::from_fn(|k, _| rc[k][i]);
+    for (col, ri) in rt.iter_mut().zip(&rtc) {
+        let mut v = SVector::<f64, NU>::from(*ri);
         ldlt_solve_vec(&l, &d, &mut v);
         *col = v.data.0[0];
     }
@@ -1200,26 +1202,6 @@ fn mm_acc<const R: usize, const K: usize, const C: usize>(
         let mut acc = *oc;
         for (ak, &bkc) in a.iter().zip(bc) {
             let s = sign * bkc;
-            for (o, &x) in acc.iter_mut().zip(ak) {
-                *o += x * s;
-            }
-        }
-        *oc = acc;
-    }
-}
-
-/// out += sign a b with b given as its transpose bt (column arrays, K x C matrix b).
-#[inline(always)]
-fn mm_acc_bt<const R: usize, const K: usize, const C: usize>(
-    out: &mut [[f64; R]; C],
-    a: &[[f64; R]; K],
-    bt: &[[f64; C]; K],
-    sign: f64,
-) {
-    for (c, oc) in out.iter_mut().enumerate() {
-        let mut acc = *oc;
-        for (ak, btk) in a.iter().zip(bt) {
-            let s = sign * btk[c];
             for (o, &x) in acc.iter_mut().zip(ak) {
                 *o += x * s;
             }
@@ -1282,8 +1264,10 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
     if !scale.is_finite() {
         return None;
     }
-    let rows: [[f64; D]; D] = std::array::from_fn(|r| std::array::from_fn(|c| a[(r, c)]));
-    let inv = gauss_jordan(rows, 1e-13 * scale)?;
+    let mut rows: [[f64; D]; D] = std::array::from_fn(|r| std::array::from_fn(|c| a[(r, c)]));
+    let mut inv: [[f64; D]; D] =
+        std::array::from_fn(|r| std::array::from_fn(|c| f64::from(u8::from(r == c))));
+    gauss_jordan(&mut rows, &mut inv, 1e-13 * scale)?;
     Some(SMatrix::from_fn(|r, c| inv[r][c]))
 }
 
@@ -1301,26 +1285,27 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     if !scale.is_finite() {
         return None;
     }
-    // Rows [A | I | 0] padded to 16 entries: four 4-wide vectors per row operation.
-    let mut m = [[0.0; 16]; K];
-    for (r, row) in m.iter_mut().enumerate() {
+    // Rows of A and of I padded to 8 entries: two 4-wide vectors each per row operation.
+    let mut a = [[0.0; 8]; K];
+    let mut ai = [[0.0; 8]; K];
+    for (r, (row, irow)) in a.iter_mut().zip(ai.iter_mut()).enumerate() {
         for (c, v) in row.iter_mut().take(K).enumerate() {
             *v = e[(r, c)];
         }
-        row[K + r] = 1.0;
+        irow[r] = 1.0;
     }
-    gauss_jordan_rows(&mut m, 1e-13 * scale)?;
+    gauss_jordan(&mut a, &mut ai, 1e-13 * scale)?;
     let mut out = SMatrix::<f64, D, D>::zeros();
-    for (r, row) in m.iter().enumerate() {
+    for (r, row) in ai.iter().enumerate() {
         for c in 0..K {
-            out[(r, c)] = row[K + c];
+            out[(r, c)] = row[c];
         }
     }
     for r in K..D {
         for c in 0..K {
             let mut acc = 0.0;
-            for (j, row) in m.iter().enumerate() {
-                acc += e[(r, j)] * row[K + c];
+            for (j, row) in ai.iter().enumerate() {
+                acc += e[(r, j)] * row[c];
             }
             out[(r, c)] = -acc;
         }
@@ -1329,49 +1314,16 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     Some(out)
 }
 
-/// Gauss-Jordan elimination with partial pivoting on K augmented rows of width W (the
-/// leading K columns are the matrix; the same operations as [`gauss_jordan`], so the same
-/// bits); `None` when a pivot is NaN or at most `tiny` in magnitude.
-#[inline(always)]
-fn gauss_jordan_rows<const K: usize, const W: usize>(
-    m: &mut [[f64; W]; K],
-    tiny: f64,
-) -> Option<()> {
-    for c in 0..K {
-        let mut p = c;
-        let mut best = m[c][c].abs();
-        for (r, row) in m.iter().enumerate().skip(c + 1) {
-            if row[c].abs() > best {
-                best = row[c].abs();
-                p = r;
-            }
-        }
-        if best.is_nan() || best <= tiny {
-            return None;
-        }
-        m.swap(p, c);
-        let piv = 1.0 / m[c][c];
-        let pr = m[c].map(|v| v * piv);
-        m[c] = pr;
-        for (r, row) in m.iter_mut().enumerate() {
-            if r != c {
-                let f = row[c];
-                for (v, &x) in row.iter_mut().zip(&pr) {
-                    *v -= f * x;
-                }
-            }
-        }
-    }
-    Some(())
-}
-
-/// Inverse of a small row-major matrix by Gauss-Jordan elimination with partial pivoting
-/// on the augmented rows [A | I] (fixed-length row operations, so they vectorize); `None`
+/// Gauss-Jordan elimination with partial pivoting on the K augmented rows [A | B]: the
+/// leading K columns of `a` are the matrix (rows may be padded to WA entries, and B to WB,
+/// so that row operations are whole 4-wide vectors); on success `b` holds A^-1 B. `None`
 /// when a pivot is NaN or at most `tiny` in magnitude.
 #[inline(always)]
-fn gauss_jordan<const K: usize>(mut a: [[f64; K]; K], tiny: f64) -> Option<[[f64; K]; K]> {
-    let mut b: [[f64; K]; K] =
-        std::array::from_fn(|r| std::array::from_fn(|c| f64::from(u8::from(r == c))));
+fn gauss_jordan<const K: usize, const WA: usize, const WB: usize>(
+    a: &mut [[f64; WA]; K],
+    b: &mut [[f64; WB]; K],
+    tiny: f64,
+) -> Option<()> {
     for c in 0..K {
         let mut p = c;
         let mut best = a[c][c].abs();
@@ -1390,17 +1342,19 @@ fn gauss_jordan<const K: usize>(mut a: [[f64; K]; K], tiny: f64) -> Option<[[f64
         let (ac, bc) = (a[c].map(|v| v * piv), b[c].map(|v| v * piv));
         a[c] = ac;
         b[c] = bc;
-        for r in 0..K {
+        for (r, (ra, rb)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
             if r != c {
-                let f = a[r][c];
-                for j in 0..K {
-                    a[r][j] -= f * ac[j];
-                    b[r][j] -= f * bc[j];
+                let f = ra[c];
+                for (v, &x) in ra.iter_mut().zip(&ac) {
+                    *v -= f * x;
+                }
+                for (v, &x) in rb.iter_mut().zip(&bc) {
+                    *v -= f * x;
                 }
             }
         }
     }
-    Some(b)
+    Some(())
 }
 
 /// a b for small column-major matrices, as axpys over contiguous columns (zeros of b

@@ -1273,36 +1273,47 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
 
 /// Inverse of E = [[A, 0], [B, I]] whose trailing columns are unit vectors, as
 /// [[A^-1, 0], [-B A^-1, I]]: the implicit-Euler dynamics Jacobian E = I - ds df/dx has
-/// them for s and t (no state depends on either), so only the leading 7 x 7 block is
-/// inverted ([`gauss_jordan`]). Any other shape goes to [`invert`].
+/// them for s and t (no state depends on either), so only the leading k x k block is
+/// inverted: embedded as diag(A, I) in a fixed 8 x 8 [`gauss_jordan`] (the identity rows
+/// never pivot into A's, so A^-1 comes out with the same bits as from a k x k elimination).
+/// Without unit columns, or with a leading block larger than 8, it is [`invert`].
 #[inline(always)]
 fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
-    const K: usize = 7;
-    if D != K + 2 || !(K..D).all(|c| (0..D).all(|r| e[(r, c)] == if r == c { 1.0 } else { 0.0 })) {
+    const W: usize = 8;
+    let mut k = D;
+    while k > 1 && (0..D).all(|r| e[(r, k - 1)] == if r == k - 1 { 1.0 } else { 0.0 }) {
+        k -= 1;
+    }
+    if k == D || k > W {
         return invert(e);
     }
     let scale = amax(e.as_slice());
     if !scale.is_finite() {
         return None;
     }
-    // Rows of A and of I padded to 8 entries: two 4-wide vectors each per row operation.
-    let mut a = [[0.0; 8]; K];
-    let mut ai = [[0.0; 8]; K];
+    // diag(A, I) and I as W x W rows: two 4-wide vectors per row operation.
+    let mut a = [[0.0; W]; W];
+    let mut ai = [[0.0; W]; W];
     for (r, (row, irow)) in a.iter_mut().zip(ai.iter_mut()).enumerate() {
-        for (c, v) in row.iter_mut().take(K).enumerate() {
-            *v = e[(r, c)];
+        if r < k {
+            for (c, v) in row.iter_mut().take(k).enumerate() {
+                *v = e[(r, c)];
+            }
+        } else {
+            row[r] = 1.0;
         }
         irow[r] = 1.0;
     }
     gauss_jordan(&mut a, &mut ai, 1e-13 * scale)?;
+    let ai = &ai[..k];
     let mut out = SMatrix::<f64, D, D>::zeros();
     for (r, row) in ai.iter().enumerate() {
-        for c in 0..K {
+        for c in 0..k {
             out[(r, c)] = row[c];
         }
     }
-    for r in K..D {
-        for c in 0..K {
+    for r in k..D {
+        for c in 0..k {
             let mut acc = 0.0;
             for (j, row) in ai.iter().enumerate() {
                 acc += e[(r, j)] * row[c];

@@ -811,6 +811,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             }
         }
     }
+
     /// Jacobian values, inlined into both the baseline and the AVX2 entry point.
     #[inline(always)]
     fn eval_jac_body(&mut self, x: &[f64], vals: &mut [f64]) {

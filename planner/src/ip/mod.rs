@@ -11,6 +11,7 @@ pub mod nlp;
 pub mod residuals;
 pub mod settings;
 pub mod solver;
+pub mod vector;
 pub mod workspace;
 
 pub use info::{IterLog, PhaseTimes, SolveInfo, Status, StepKind};

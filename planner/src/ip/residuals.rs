@@ -86,40 +86,15 @@ pub fn compute_errors(ws: &mut Workspace, mu: f64) -> Errors {
     r[..n].copy_from_slice(&ws.grad);
     r[n..].iter_mut().for_each(|v| *v = 0.0);
     jac_t_mul(&ws.jac_rows, &ws.jac_cols, &ws.jac, &ws.y, &mut r[..n]);
-    for i in 0..m {
-        if !ws.is_eq[i] {
-            r[n + i] = -ws.y[i];
-        }
-    }
-    let mut inf_du: f64 = 0.0;
-    let mut compl: f64 = 0.0;
-    let mut compl_mu: f64 = 0.0;
-    let mut z_sum = 0.0;
-    let mut compl_sum = 0.0;
-    for j in 0..n + m {
-        let mut rj = r[j];
-        if ws.has_lo[j] {
-            rj -= ws.zl[j];
-            let p = (ws.w[j] - ws.lo[j]) * ws.zl[j];
-            compl = compl.max(p.abs());
-            compl_mu = compl_mu.max((p - mu).abs());
-            z_sum += ws.zl[j].abs();
-            compl_sum += p;
-        }
-        if ws.has_hi[j] {
-            rj += ws.zu[j];
-            let p = (ws.hi[j] - ws.w[j]) * ws.zu[j];
-            compl = compl.max(p.abs());
-            compl_mu = compl_mu.max((p - mu).abs());
-            z_sum += ws.zu[j].abs();
-            compl_sum += p;
-        }
-        r[j] = rj;
-        inf_du = inf_du.max(rj.abs());
-    }
-    let inf_pr = ws.c.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
+    let (inf_pr, y_sum) = super::vector::slack_terms(ws);
+    let super::vector::BoundErrors {
+        inf_du,
+        compl,
+        compl_mu,
+        z_sum,
+        compl_sum,
+    } = super::vector::bound_errors(ws, mu);
     let s_max = 100.0;
-    let y_sum: f64 = ws.y.iter().map(|v| v.abs()).sum();
     let nc = ws.n_compl.max(1) as f64;
     let s_d = ((y_sum + z_sum) / (m as f64 + nc)).max(s_max) / s_max;
     let s_c = (z_sum / nc).max(s_max) / s_max;

@@ -11,6 +11,7 @@ use super::kkt::{KktBackend, KktError, KktSolver, KktValues};
 use super::nlp::Nlp;
 use super::residuals::{self, compute_errors, Errors};
 use super::settings::{BarrierRule, Globalization, Settings};
+use super::vector;
 use super::workspace::Workspace;
 
 /// Error constructing a solver.
@@ -942,17 +943,7 @@ impl<K: KktSolver> Solver<K> {
 
     /// Barrier Hessian Sigma = z_l/(w - l) + z_u/(u - w).
     fn compute_sigma(&mut self) {
-        let ws = &mut self.ws;
-        for j in 0..ws.n + ws.m {
-            let mut sg = 0.0;
-            if ws.has_lo[j] {
-                sg += ws.zl[j] / (ws.w[j] - ws.lo[j]);
-            }
-            if ws.has_hi[j] {
-                sg += ws.zu[j] / (ws.hi[j] - ws.w[j]);
-            }
-            ws.sigma[j] = sg;
-        }
+        vector::sigma(&mut self.ws);
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -1252,16 +1243,7 @@ impl<K: KktSolver> Solver<K> {
                 }
             }
         }
-        for j in 0..n + m {
-            let mut r = ws.rhs_w[j];
-            if ws.has_lo[j] {
-                r -= ws.tgt_l[j] / (ws.w[j] - ws.lo[j]);
-            }
-            if ws.has_hi[j] {
-                r += ws.tgt_u[j] / (ws.hi[j] - ws.w[j]);
-            }
-            ws.rhs_w[j] = -r;
-        }
+        vector::rhs_bounds(ws);
         let c = if soc { &ws.tmp_m } else { &ws.c };
         ws.sol_x.copy_from_slice(&ws.rhs_w[..n]);
         for i in 0..m {
@@ -1281,47 +1263,12 @@ impl<K: KktSolver> Solver<K> {
                 (ws.rhs_w[n + i] + ws.dy[i]) / (ws.sigma[n + i] + delta_w)
             };
         }
-        for j in 0..n + m {
-            ws.dzl[j] = if ws.has_lo[j] {
-                let sl = ws.w[j] - ws.lo[j];
-                (ws.tgt_l[j] - sl * ws.zl[j] - ws.zl[j] * ws.dw[j]) / sl
-            } else {
-                0.0
-            };
-            ws.dzu[j] = if ws.has_hi[j] {
-                let su = ws.hi[j] - ws.w[j];
-                (ws.tgt_u[j] - su * ws.zu[j] + ws.zu[j] * ws.dw[j]) / su
-            } else {
-                0.0
-            };
-        }
+        vector::bound_duals(ws);
     }
 
     /// Largest primal and dual steps keeping a fraction tau of the distance to the bounds.
     fn max_steps(&self, tau: f64) -> (f64, f64) {
-        let ws = &self.ws;
-        let mut ap: f64 = 1.0;
-        let mut ad: f64 = 1.0;
-        for j in 0..ws.n + ws.m {
-            let d = ws.dw[j];
-            if ws.has_lo[j] {
-                if d < 0.0 {
-                    ap = ap.min(-tau * (ws.w[j] - ws.lo[j]) / d);
-                }
-                if ws.dzl[j] < 0.0 {
-                    ad = ad.min(-tau * ws.zl[j] / ws.dzl[j]);
-                }
-            }
-            if ws.has_hi[j] {
-                if d > 0.0 {
-                    ap = ap.min(tau * (ws.hi[j] - ws.w[j]) / d);
-                }
-                if ws.dzu[j] < 0.0 {
-                    ad = ad.min(-tau * ws.zu[j] / ws.dzu[j]);
-                }
-            }
-        }
-        (ap, ad)
+        vector::max_steps(&self.ws, tau)
     }
 
     /// Barrier objective f - mu sum ln(slacks) at primal point `w` with objective `f`.
@@ -1461,10 +1408,7 @@ impl<K: KktSolver> Solver<K> {
 
     /// w_t = w + alpha dw.
     fn set_trial(&mut self, alpha: f64) {
-        let ws = &mut self.ws;
-        for j in 0..ws.n + ws.m {
-            ws.w_t[j] = ws.w[j] + alpha * ws.dw[j];
-        }
+        vector::set_trial(&mut self.ws, alpha);
     }
 
     /// Evaluates f and c at w_t; returns (f, ||c||_1, barrier objective) when finite.
@@ -1505,20 +1449,7 @@ impl<K: KktSolver> Solver<K> {
 
     /// grad(barrier objective) . dw at the current point.
     fn barrier_grad_dot_dw(&self, mu: f64) -> f64 {
-        let ws = &self.ws;
-        let n = ws.n;
-        let mut gd = 0.0;
-        for j in 0..n + ws.m {
-            let mut gj = if j < n { ws.grad[j] } else { 0.0 };
-            if ws.has_lo[j] {
-                gj -= mu / (ws.w[j] - ws.lo[j]);
-            }
-            if ws.has_hi[j] {
-                gj += mu / (ws.hi[j] - ws.w[j]);
-            }
-            gd += gj * ws.dw[j];
-        }
-        gd
+        vector::barrier_grad_dot(&self.ws, mu)
     }
 
     /// Backtracking line search on phi_nu = barrier objective + nu ||c||_2 (paper eq. 5).
@@ -1670,7 +1601,7 @@ impl<K: KktSolver> Solver<K> {
     /// Takes the step: w = w_t (already holding w + alpha dw), y += alpha dy, z += alpha_z dz.
     fn accept(&mut self, f_t: f64, alpha: f64, alpha_z: f64, mu: f64, update_y: bool) {
         let ws = &mut self.ws;
-        let (n, m) = (ws.n, ws.m);
+        let m = ws.m;
         ws.w.copy_from_slice(&ws.w_t);
         ws.f = f_t;
         ws.g.copy_from_slice(&ws.g_t);
@@ -1680,19 +1611,7 @@ impl<K: KktSolver> Solver<K> {
                 ws.y[i] += alpha * ws.dy[i];
             }
         }
-        let kappa_sigma = 1e10;
-        for j in 0..n + m {
-            if ws.has_lo[j] {
-                let sl = ws.w[j] - ws.lo[j];
-                let z = ws.zl[j] + alpha_z * ws.dzl[j];
-                ws.zl[j] = z.clamp(mu / (kappa_sigma * sl), kappa_sigma * mu / sl);
-            }
-            if ws.has_hi[j] {
-                let su = ws.hi[j] - ws.w[j];
-                let z = ws.zu[j] + alpha_z * ws.dzu[j];
-                ws.zu[j] = z.clamp(mu / (kappa_sigma * su), kappa_sigma * mu / su);
-            }
-        }
+        vector::step_bound_duals(ws, alpha_z, mu);
     }
 }
 

@@ -122,6 +122,8 @@ pub struct Workspace {
     pub filter: Vec<(f64, f64)>,
     /// Free-mode progress filter of (violation, objective) pairs.
     pub progress: Vec<(f64, f64)>,
+    /// Run the vector kernels of [`super::vector`] in their AVX2 copy (same bits).
+    pub simd: bool,
 }
 
 impl Workspace {
@@ -195,6 +197,7 @@ impl Workspace {
             log: Vec::with_capacity(log_capacity),
             filter: Vec::with_capacity(log_capacity),
             progress: Vec::with_capacity(log_capacity),
+            simd: crate::cpu::avx2_available(),
         }
     }
 

@@ -18,7 +18,7 @@
 //!
 //! All inputs and outputs are physical (SI) here; scaling is applied by the callers.
 
-use super::jet::{compose, Arith, D1, D2};
+use super::jet::{compose_tail, Arith, D1, D2};
 use crate::model::{iu, ix, VehicleParams, NU, NX};
 
 /// Number of tire inputs: [r, V, beta, V_wr, dFz, delta, T_bf] (also the saturation inputs).
@@ -221,21 +221,19 @@ fn slips_d2(p: &VehicleParams, ti: &[f64; NT]) -> [D2<NT>; 3] {
 pub fn saturation_hessian(p: &VehicleParams, x: &[f64; NX], u: &[f64; NU], w: [f64; 2]) -> D2<NT> {
     let ti = tire_inputs(x, u);
     let [taf, tar, kr] = slips_d2(p, &ti);
-    let dfz = D2::<NT>::var(ti[T_DFZ], T_DFZ);
-    let tbf = D2::<NT>::var(ti[T_TBF], T_TBF);
     let fo = front(
         p,
-        D2::var(taf.re, 0),
+        D2::<3>::var(taf.re, 0),
         D2::var(ti[T_DFZ], 1),
         D2::var(ti[T_TBF], 2),
     )[1] * w[0];
     let ro = rear(
         p,
-        D2::var(tar.re, 0),
+        D2::<3>::var(tar.re, 0),
         D2::var(kr.re, 1),
         D2::var(ti[T_DFZ], 2),
     )[2] * w[1];
-    compose(&fo, &[taf, dfz, tbf]) + compose(&ro, &[tar, kr, dfz])
+    compose_tail(&fo, &[taf], &[T_DFZ, T_TBF]) + compose_tail(&ro, &[tar, kr], &[T_DFZ])
 }
 
 /// Second-order jet of `phi = sum_{i != s} w[i] f_i(x, u)` (f = physical spatial
@@ -252,7 +250,6 @@ pub fn defect_hessian(
     let ti = tire_inputs(x, u);
     // Forces over the tire inputs.
     let [taf, tar, kr] = slips_d2(p, &ti);
-    let dfz = D2::<NT>::var(ti[T_DFZ], T_DFZ);
     let tbf = D2::<NT>::var(ti[T_TBF], T_TBF);
     let fyf3 = front(
         p,
@@ -260,16 +257,16 @@ pub fn defect_hessian(
         D2::var(ti[T_DFZ], 1),
         D2::var(ti[T_TBF], 2),
     )[0];
-    let fyf = compose(&fyf3, &[taf, dfz, tbf]);
+    let fyf = compose_tail(&fyf3, &[taf], &[T_DFZ, T_TBF]);
     let [fxr3, fyr3, _] = rear(
         p,
         D2::<3>::var(tar.re, 0),
         D2::var(kr.re, 1),
         D2::var(ti[T_DFZ], 2),
     );
-    let rear_in = [tar, kr, dfz];
-    let fxr = compose(&fxr3, &rear_in);
-    let fyr = compose(&fyr3, &rear_in);
+    let rear_in = [tar, kr];
+    let fxr = compose_tail(&fxr3, &rear_in, &[T_DFZ]);
+    let fyr = compose_tail(&fyr3, &rear_in, &[T_DFZ]);
     let fxf = tbf / p.r_w;
 
     // Coefficients of the forces in B over (V, beta, delta):
@@ -312,13 +309,5 @@ pub fn defect_hessian(
     let one_m = -(e4 * kappa) + 1.0;
     let (sp, cp) = p4.sin_cos();
     let phi4 = (b4 + sp * v4 * w[ix::E]) * one_m / (v4 * cp) - w[ix::DPSI] * kappa;
-    compose(
-        &phi4,
-        &[
-            b,
-            D2::var(x[ix::V], F_V),
-            D2::var(x[ix::E], F_E),
-            D2::var(x[ix::DPSI], F_DPSI),
-        ],
-    )
+    compose_tail(&phi4, &[b], &[F_V, F_E, F_DPSI])
 }

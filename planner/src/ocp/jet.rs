@@ -220,6 +220,57 @@ pub fn compose<const K: usize, const M: usize>(outer: &D2<K>, inner: &[D2<M>; K]
     out
 }
 
+/// [`compose`] when the last intermediates are plain inputs: `outer` is a jet over K
+/// intermediates, the first H of them the jets `head` over M inputs and intermediate
+/// H + i the input `tail[i]` (unit gradient, zero Hessian; K = H + tail.len()). Their
+/// Hessian terms vanish and their outer products are single rows, so only the H head
+/// Hessians are swept: H M^2 instead of K M^2 multiply-adds.
+#[inline(always)]
+pub fn compose_tail<const K: usize, const M: usize, const H: usize>(
+    outer: &D2<K>,
+    head: &[D2<M>; H],
+    tail: &[usize],
+) -> D2<M> {
+    debug_assert_eq!(H + tail.len(), K);
+    let mut out = D2::<M> {
+        re: outer.re,
+        g: [0.0; M],
+        h: [[0.0; M]; M],
+    };
+    // t[k] = sum_l y_kl grad w_l over all K intermediates.
+    let mut t = [[0.0; M]; K];
+    for (k, tk) in t.iter_mut().enumerate() {
+        for (l, w) in head.iter().enumerate() {
+            let ykl = outer.h[k][l];
+            for n in 0..M {
+                tk[n] += ykl * w.g[n];
+            }
+        }
+        for (i, &v) in tail.iter().enumerate() {
+            tk[v] += outer.h[k][H + i];
+        }
+    }
+    for (k, w) in head.iter().enumerate() {
+        let yk = outer.g[k];
+        for n in 0..M {
+            out.g[n] += yk * w.g[n];
+        }
+        for m in 0..M {
+            let wm = w.g[m];
+            for n in 0..M {
+                out.h[m][n] += yk * w.h[m][n] + wm * t[k][n];
+            }
+        }
+    }
+    for (i, &v) in tail.iter().enumerate() {
+        out.g[v] += outer.g[H + i];
+        for n in 0..M {
+            out.h[v][n] += t[H + i][n];
+        }
+    }
+    out
+}
+
 /// First-order chain rule: jet of y(w(x)) from the jet of y over K intermediates and the
 /// jets of the intermediates over M inputs.
 #[inline(always)]

@@ -2,10 +2,23 @@
 
 use super::workspace::Workspace;
 
-/// Monotone (Fiacco-McCormick) decrease: mu <- max(tol/10, min(kappa mu, mu^theta))
-/// (Waechter & Biegler 2006, eq. 7; IPOPT uses kappa = 0.2, theta = 1.5).
+/// The monotone rule's last barrier parameter, as a fraction of the tolerance `tol`.
+/// IPOPT stops at tol / 11 so that its barrier-subproblem test implies convergence; here
+/// convergence is tested on the unperturbed KKT error at every iteration, and the last
+/// subproblem's solution has s z = mu < tol already, so half the tolerance suffices. A
+/// smaller floor adds a subproblem whose first step overshoots (measured: oval 49 -> 44
+/// iterations with 0.5 instead of 0.1, 634 -> 597 over the oval and S01-S10, t_N within
+/// 1e-6 relative, all `optimal`).
+pub const MU_FLOOR_TOL_FRACTION: f64 = 0.5;
+
+/// Monotone (Fiacco-McCormick) decrease: mu <- max(tol/2, min(kappa mu, mu^theta))
+/// (Waechter & Biegler 2006, eq. 7; IPOPT uses kappa = 0.2, theta = 1.5; the floor is
+/// [`MU_FLOOR_TOL_FRACTION`]).
 pub fn monotone_next(mu: f64, kappa: f64, theta: f64, tol: f64, mu_min: f64) -> f64 {
-    (kappa * mu).min(mu.powf(theta)).max(tol / 10.0).max(mu_min)
+    (kappa * mu)
+        .min(mu.powf(theta))
+        .max(tol * MU_FLOOR_TOL_FRACTION)
+        .max(mu_min)
 }
 
 /// Average complementarity after steps (alpha_p, alpha_d) along the current direction

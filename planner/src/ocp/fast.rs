@@ -14,7 +14,8 @@
 //!   B = sum_j F_j c_j(V, beta, delta) + linear terms; the coefficients are 3-input jets.
 //! * The slips depend on 5 inputs (r, V, beta, V_wr, delta), the front force on
 //!   (tan alpha_f, dFz, T_bf), the rear forces on (tan alpha_r, kappa_r, dFz): each piece is
-//!   a jet over at most 5 variables, substituted by the exact chain rule [`compose`].
+//!   a jet over at most 5 variables, substituted by the exact chain rule
+//!   [`super::jet::compose_tail`] (intermediates that are plain inputs cost one row each).
 //!
 //! All inputs and outputs are physical (SI) here; scaling is applied by the callers.
 

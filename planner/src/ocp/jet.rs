@@ -187,37 +187,7 @@ impl<const M: usize> D2<M> {
 /// grad = sum_k y_k grad w_k, H = sum_k y_k H(w_k) + sum_kl y_kl grad w_k grad w_l^T.
 #[inline(always)]
 pub fn compose<const K: usize, const M: usize>(outer: &D2<K>, inner: &[D2<M>; K]) -> D2<M> {
-    let mut out = D2::<M> {
-        re: outer.re,
-        g: [0.0; M],
-        h: [[0.0; M]; M],
-    };
-    // t[k] = sum_l y_kl grad w_l (full symmetric y from the lower triangle).
-    let mut t = [[0.0; M]; K];
-    for k in 0..K {
-        for l in 0..K {
-            let ykl = outer.h[k][l];
-            if ykl != 0.0 {
-                for n in 0..M {
-                    t[k][n] += ykl * inner[l].g[n];
-                }
-            }
-        }
-    }
-    for k in 0..K {
-        let yk = outer.g[k];
-        let w = &inner[k];
-        for n in 0..M {
-            out.g[n] += yk * w.g[n];
-        }
-        for m in 0..M {
-            let wm = w.g[m];
-            for n in 0..M {
-                out.h[m][n] += yk * w.h[m][n] + wm * t[k][n];
-            }
-        }
-    }
-    out
+    compose_tail::<K, M, K>(outer, inner, &[])
 }
 
 /// [`compose`] when the last intermediates are plain inputs: `outer` is a jet over K
@@ -538,5 +508,39 @@ impl<const M: usize> Arith for D2<M> {
         let t = self.re.tan();
         let d1 = 1.0 + t * t;
         self.chain(t, d1, 2.0 * t * d1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// y(w) = w0 w1 + w2^2 with w0 = x0^2 x2 (a jet), w1 = x1 and w2 = x2 (plain inputs):
+    /// y = x0^2 x1 x2 + x2^2, whose gradient and Hessian are known in closed form.
+    #[test]
+    fn compose_tail_matches_the_closed_form_and_compose() {
+        let x = [0.7, -1.3, 2.1];
+        let v: [D2<3>; 3] = std::array::from_fn(|i| D2::var(x[i], i));
+        let w0 = v[0] * v[0] * v[2];
+        let o: [D2<3>; 3] = std::array::from_fn(|i| D2::var([w0.re, x[1], x[2]][i], i));
+        let outer = o[0] * o[1] + o[2] * o[2];
+        let tail = compose_tail(&outer, &[w0], &[1, 2]);
+        let full = compose(&outer, &[w0, v[1], v[2]]);
+        let (a, b, c) = (x[0], x[1], x[2]);
+        let g = [2.0 * a * b * c, a * a * c, a * a * b + 2.0 * c];
+        let h = [
+            [2.0 * b * c, 2.0 * a * c, 2.0 * a * b],
+            [2.0 * a * c, 0.0, a * a],
+            [2.0 * a * b, a * a, 2.0],
+        ];
+        for jet in [&tail, &full] {
+            assert!((jet.re - (a * a * b * c + c * c)).abs() < 1e-12);
+            for i in 0..3 {
+                assert!((jet.g[i] - g[i]).abs() < 1e-12, "g[{i}]");
+                for j in 0..3 {
+                    assert!((jet.h[i][j] - h[i][j]).abs() < 1e-12, "h[{i}][{j}]");
+                }
+            }
+        }
     }
 }

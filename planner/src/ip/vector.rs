@@ -4,7 +4,8 @@
 //! and a bound at +-inf, so its terms vanish or are masked) so that they vectorize, and
 //! compiled twice like the Riccati and derivative kernels ([`crate::cpu`]): the AVX2 copy
 //! and the baseline copy give the same bits, because every loop keeps its order of
-//! operations per entry and reductions are exact (min, max) or sequential (sums).
+//! operations per entry and reductions are exact (min, max), sequential or summed in L = 4
+//! fixed lanes.
 
 use super::workspace::Workspace;
 
@@ -92,6 +93,16 @@ fn step_limits(ws: &Workspace, j: usize, tau: f64) -> (f64, f64) {
     (min(cl, cu), min(dl, du))
 }
 
+/// Lanes of the reductions: entry j goes to lane j % L (the tail to lane 0), and the lanes
+/// are combined in a fixed order, so both copies reduce identically.
+const L: usize = 4;
+
+/// Lanes combined by `f` as f(f(a0, a1), f(a2, a3)).
+#[inline(always)]
+fn fold(a: [f64; L], f: impl Fn(f64, f64) -> f64) -> f64 {
+    f(f(a[0], a[1]), f(a[2], a[3]))
+}
+
 /// min without NaN handling (a NaN candidate is ignored, as `f64::min` does).
 #[inline(always)]
 fn min(a: f64, b: f64) -> f64 {
@@ -116,7 +127,6 @@ kernel! {
     /// Largest primal and dual steps in (0, 1] keeping a fraction tau of the distance to
     /// the bounds (fraction-to-the-boundary rule).
     pub fn max_steps(ws: &Workspace, tau: f64) -> (f64, f64) {
-        const L: usize = 4;
         let nw = ws.n + ws.m;
         let mut ap = [1.0f64; L];
         let mut ad = [1.0f64; L];
@@ -133,10 +143,7 @@ kernel! {
             ap[0] = min(ap[0], p);
             ad[0] = min(ad[0], d);
         }
-        (
-            min(min(ap[0], ap[1]), min(ap[2], ap[3])),
-            min(min(ad[0], ad[1]), min(ad[2], ad[3])),
-        )
+        (fold(ap, min), fold(ad, min))
     }
 }
 
@@ -198,9 +205,8 @@ kernel! {
 
 kernel! {
     /// Slack rows of the dual residual (tmp_w[n + i] = -y_i for inequality rows; equality
-    /// rows keep 0), and (max |c_i|, sum |y_i|) in four fixed lanes.
+    /// rows keep 0), and (max |c_i|, sum |y_i|).
     pub fn slack_terms(ws: &mut Workspace) -> (f64, f64) {
-        const L: usize = 4;
         let (n, m) = (ws.n, ws.m);
         let (y, c, eq) = (&ws.y[..m], &ws.c[..m], &ws.is_eq[..m]);
         let r = &mut ws.tmp_w[n..n + m];
@@ -220,10 +226,7 @@ kernel! {
             pr[0] = max(pr[0], c[i].abs());
             ys[0] += y[i].abs();
         }
-        (
-            max(max(pr[0], pr[1]), max(pr[2], pr[3])),
-            (ys[0] + ys[1]) + (ys[2] + ys[3]),
-        )
+        (fold(pr, max), fold(ys, |a, b| a + b))
     }
 }
 
@@ -269,7 +272,7 @@ fn bound_error_entry(ws: &Workspace, j: usize, mu: f64) -> (f64, [f64; 6]) {
 
 /// Adds one entry of [`bound_errors`] to lane `l` of the accumulators.
 #[inline(always)]
-fn accumulate(acc: &mut [[f64; 4]; 5], l: usize, rj: f64, e: &[f64; 6]) {
+fn accumulate(acc: &mut [[f64; L]; 5], l: usize, rj: f64, e: &[f64; 6]) {
     acc[0][l] = max(acc[0][l], rj.abs());
     acc[1][l] = max(max(acc[1][l], e[0]), e[1]);
     acc[2][l] = max(max(acc[2][l], e[2]), e[3]);
@@ -280,9 +283,7 @@ fn accumulate(acc: &mut [[f64; 4]; 5], l: usize, rj: f64, e: &[f64; 6]) {
 kernel! {
     /// Completes the dual residual in `tmp_w` (it holds grad f + J^T y and -y on the
     /// slacks): tmp_w -= z_l - z_u; returns its max norm and the complementarity measures.
-    /// Four lanes per reduction, in a fixed order.
     pub fn bound_errors(ws: &mut Workspace, mu: f64) -> BoundErrors {
-        const L: usize = 4;
         let nw = ws.n + ws.m;
         // Lanes: inf_du, compl, compl_mu, z_sum, compl_sum.
         let mut acc = [[0.0f64; L]; 5];
@@ -300,14 +301,12 @@ kernel! {
             accumulate(&mut acc, 0, rj, &e);
         }
         let [inf_du, compl, compl_mu, z_sum, compl_sum] = acc;
-        let fold_max = |a: [f64; L]| max(max(a[0], a[1]), max(a[2], a[3]));
-        let fold_sum = |a: [f64; L]| (a[0] + a[1]) + (a[2] + a[3]);
         BoundErrors {
-            inf_du: fold_max(inf_du),
-            compl: fold_max(compl),
-            compl_mu: fold_max(compl_mu),
-            z_sum: fold_sum(z_sum),
-            compl_sum: fold_sum(compl_sum),
+            inf_du: fold(inf_du, max),
+            compl: fold(compl, max),
+            compl_mu: fold(compl_mu, max),
+            z_sum: fold(z_sum, |a, b| a + b),
+            compl_sum: fold(compl_sum, |a, b| a + b),
         }
     }
 }

@@ -26,6 +26,7 @@ fn oval_spec() -> OcpSpec {
 
 /// A KKT system of the oval NLP at its starting point with random multipliers and
 /// diagonals: Hessian, Jacobian, D_x > 0, D_c = -delta_c on equalities and < 0 otherwise.
+#[derive(Clone)]
 struct System {
     n: usize,
     m: usize,
@@ -552,4 +553,41 @@ fn simd_and_baseline_copies_agree_bit_for_bit() {
             assert_eq!(u.to_bits(), v.to_bits(), "trial {trial}: {u} vs {v}");
         }
     }
+}
+
+/// The inertia-correcting refactorizations of an iteration change only the diagonals, and
+/// the backend then reuses its stage inverses F = E^-1: the steps must have the same bits
+/// as a fresh backend's. A changed Jacobian (the next iteration) must not reuse them.
+#[test]
+fn refactorization_reuses_only_what_did_not_change() {
+    let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
+    let structure = nlp.stage_structure().unwrap();
+    let mut rng = Rng(11);
+    let a = system(&mut nlp, &mut rng, 0.0, false);
+    let b = system(&mut nlp, &mut rng, 0.0, false);
+    let bx: Vec<f64> = (0..a.n).map(|_| rng.range(-1.0, 1.0)).collect();
+    let by: Vec<f64> = (0..a.m).map(|_| rng.range(-1.0, 1.0)).collect();
+    let step = |kkt: &mut VehicleRiccati, s: &System| {
+        kkt.factorize(&s.values()).unwrap();
+        let (mut x, mut y) = (bx.clone(), by.clone());
+        kkt.solve(&mut x, &mut y);
+        x.into_iter()
+            .chain(y)
+            .map(f64::to_bits)
+            .collect::<Vec<u64>>()
+    };
+    let mut reused = riccati_for(&structure, &a);
+    step(&mut reused, &a);
+    // Same Hessian and Jacobian, shifted diagonals (what an inertia correction does).
+    let mut shifted = a.clone();
+    shifted.dx.iter_mut().for_each(|d| *d += 1e-3);
+    let fresh = step(&mut riccati_for(&structure, &shifted), &shifted);
+    assert_eq!(step(&mut reused, &shifted), fresh);
+    // A new Jacobian (another point) on the same backend.
+    let fresh_b = step(&mut riccati_for(&structure, &b), &b);
+    assert_eq!(step(&mut reused, &b), fresh_b);
+    // And back: the first point again after the second.
+    shifted.dx[0] += 1.0;
+    let fresh_s = step(&mut riccati_for(&structure, &shifted), &shifted);
+    assert_eq!(step(&mut reused, &shifted), fresh_s);
 }

@@ -83,6 +83,10 @@ struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
     j: SMatrix<f64, NX, NZ>,
     /// F = E^-1.
     f: SMatrix<f64, NX, NX>,
+    /// The E that `f` inverts (NaN until the first factorization): the inertia-correcting
+    /// refactorizations of an iteration change only diagonals, so F is reused when E has
+    /// the same bits.
+    e_in: SMatrix<f64, NX, NX>,
     /// Delta_k = 0: [[P^, I], [I, 0]]^-1 = [[0, I], [I, -P^]] and a11, a12 are unused.
     zero_delta: bool,
     /// Blocks of [[P^, I], [I, -Delta]]^-1 = [[a11, a12], [a12^T, a22]].
@@ -112,6 +116,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<
         Self {
             j: SMatrix::zeros(),
             f: SMatrix::zeros(),
+            e_in: SMatrix::repeat(f64::NAN),
             zero_delta: true,
             lambda_first: false,
             sx_l: SMatrix::zeros(),
@@ -553,7 +558,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
     ) -> Result<(), KktError> {
-        let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
+        let f = cached_inverse(fac, e)?;
         let mut phat = mul_tn(&f, &mul_nn(p, &f));
         symmetrize(&mut phat);
         fac.f = f;
@@ -1075,7 +1080,7 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     y_live: &[bool; NZ],
     inertia: &mut Inertia,
 ) -> Result<(), KktError> {
-    let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
+    let f = cached_inverse(fac, e)?;
     let fc = &f.data.0;
     let ft: [[f64; NX]; NX] = std::array::from_fn(|c| std::array::from_fn(|r| fc[r][c]));
     // P^ = F^T (P F): its pair has inertia (NX, NX).
@@ -1210,20 +1215,60 @@ fn mm_acc<const R: usize, const K: usize, const C: usize>(
     }
 }
 
-/// Largest magnitude, NaN when an entry is NaN (so a NaN block is rejected). A plain slice
-/// loop: nalgebra's `amax` went through its generic iterator, 10 instructions per entry.
+/// F = E^-1 for stage factor `fac`: the stored inverse when E has the same bits as the
+/// one it was computed from (an inertia-correcting refactorization), else a new one.
+#[inline(always)]
+fn cached_inverse<const NX: usize, const NU: usize, const NZ: usize>(
+    fac: &mut StageFactor<NX, NU, NZ>,
+    e: &SMatrix<f64, NX, NX>,
+) -> Result<SMatrix<f64, NX, NX>, KktError> {
+    if same_bits(fac.e_in.as_slice(), e.as_slice()) {
+        return Ok(fac.f);
+    }
+    let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
+    fac.e_in = *e;
+    Ok(f)
+}
+
+/// Whether two slices of equal length hold the same bits (NaN never matches a number).
+#[inline(always)]
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    let mut diff = 0u64;
+    for (x, y) in a.iter().zip(b) {
+        diff |= x.to_bits() ^ y.to_bits();
+    }
+    diff == 0 && a.len() == b.len()
+}
+
+/// Largest magnitude; NaN when an entry is NaN or infinite (so such a block is rejected
+/// by the callers' finiteness test). Four independent lanes, so the max chain does not
+/// serialize on the latency of one register (it was 5 % of a factorization).
 #[inline(always)]
 fn amax(a: &[f64]) -> f64 {
-    let mut m = 0.0f64;
-    let mut nan = false;
-    for &v in a {
-        m = m.max(v.abs());
-        nan |= v.is_nan();
+    const L: usize = 4;
+    let mut m = [0.0f64; L];
+    // x * 0 is NaN exactly for NaN and +-inf.
+    let mut bad = [0.0f64; L];
+    let mut chunks = a.chunks_exact(L);
+    for ch in &mut chunks {
+        for l in 0..L {
+            let x = ch[l].abs();
+            m[l] = if x > m[l] { x } else { m[l] };
+            bad[l] += ch[l] * 0.0;
+        }
     }
-    if nan {
-        f64::NAN
+    for &v in chunks.remainder() {
+        let x = v.abs();
+        m[0] = if x > m[0] { x } else { m[0] };
+        bad[0] += v * 0.0;
+    }
+    let mx = m
+        .iter()
+        .fold(0.0f64, |acc, &x| if x > acc { x } else { acc });
+    if bad.iter().sum::<f64>() == 0.0 {
+        mx
     } else {
-        m
+        f64::NAN
     }
 }
 

@@ -78,7 +78,8 @@ pub fn constraint_residual(
     }
 }
 
-/// Dual residual grad L over w into `ws.tmp_w`; returns the KKT errors at mu.
+/// Dual residual grad L over w into `ws.tmp_w` (and grad f + J^T y into `ws.grad_lag`);
+/// returns the KKT errors at mu.
 pub fn compute_errors(ws: &mut Workspace, mu: f64) -> Errors {
     let n = ws.n;
     let m = ws.m;
@@ -86,6 +87,7 @@ pub fn compute_errors(ws: &mut Workspace, mu: f64) -> Errors {
     r[..n].copy_from_slice(&ws.grad);
     r[n..].iter_mut().for_each(|v| *v = 0.0);
     jac_t_mul(&ws.jac_rows, &ws.jac_cols, &ws.jac, &ws.y, &mut r[..n]);
+    ws.grad_lag.copy_from_slice(&ws.tmp_w[..n]);
     let (inf_pr, y_sum) = super::vector::slack_terms(ws);
     let super::vector::BoundErrors {
         inf_du,

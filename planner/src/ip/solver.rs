@@ -231,6 +231,8 @@ impl<K: KktSolver> Solver<K> {
             }
 
             let err = compute_errors(&mut self.ws, mu);
+            // Valid until the step is accepted (see `accept`).
+            self.ws.grad_lag_fresh = true;
             let score = self.score(&err);
             if score < best_score {
                 best_score = score;
@@ -560,6 +562,7 @@ impl<K: KktSolver> Solver<K> {
     ) -> bool {
         let s = self.settings;
         let ws = &mut self.ws;
+        ws.grad_lag_fresh = false;
         let (n, m) = (ws.n, ws.m);
         // Variable bounds into lo/hi[..n]; constraint bounds into g_l/g_u.
         {
@@ -676,6 +679,7 @@ impl<K: KktSolver> Solver<K> {
 
     fn restore_best(&mut self) {
         let ws = &mut self.ws;
+        ws.grad_lag_fresh = false;
         ws.w.copy_from_slice(&ws.best_w);
         ws.y.copy_from_slice(&ws.best_y);
         ws.zl.copy_from_slice(&ws.best_zl);
@@ -684,6 +688,7 @@ impl<K: KktSolver> Solver<K> {
 
     fn reevaluate<P: Nlp + ?Sized>(&mut self, nlp: &mut P, evals: &mut usize) {
         let ws = &mut self.ws;
+        ws.grad_lag_fresh = false;
         let n = ws.n;
         ws.f = nlp.eval_f(&ws.w[..n]);
         nlp.eval_g(&ws.w[..n], &mut ws.g);
@@ -988,6 +993,7 @@ impl<K: KktSolver> Solver<K> {
     ) -> Option<(f64, usize)> {
         let s = self.settings;
         let (n, m) = (self.ws.n, self.ws.m);
+        self.ws.grad_lag_fresh = false;
         // Exact Hessian of 0.5 ||c||^2 beyond J^T J: sum_i c_i grad^2 g_i.
         let te = Instant::now();
         {
@@ -1229,14 +1235,18 @@ impl<K: KktSolver> Solver<K> {
         // rhs_w = -(grad + A^T y - tgt_l/sl + tgt_u/su)
         ws.rhs_w.iter_mut().for_each(|v| *v = 0.0);
         if !feasibility {
-            ws.rhs_w[..n].copy_from_slice(&ws.grad);
-            residuals::jac_t_mul(
-                &ws.jac_rows,
-                &ws.jac_cols,
-                &ws.jac,
-                &ws.y,
-                &mut ws.rhs_w[..n],
-            );
+            if ws.grad_lag_fresh {
+                ws.rhs_w[..n].copy_from_slice(&ws.grad_lag);
+            } else {
+                ws.rhs_w[..n].copy_from_slice(&ws.grad);
+                residuals::jac_t_mul(
+                    &ws.jac_rows,
+                    &ws.jac_cols,
+                    &ws.jac,
+                    &ws.y,
+                    &mut ws.rhs_w[..n],
+                );
+            }
             for i in 0..m {
                 if !ws.is_eq[i] {
                     ws.rhs_w[n + i] = -ws.y[i];
@@ -1601,6 +1611,7 @@ impl<K: KktSolver> Solver<K> {
     /// Takes the step: w = w_t (already holding w + alpha dw), y += alpha dy, z += alpha_z dz.
     fn accept(&mut self, f_t: f64, alpha: f64, alpha_z: f64, mu: f64, update_y: bool) {
         let ws = &mut self.ws;
+        ws.grad_lag_fresh = false;
         let m = ws.m;
         ws.w.copy_from_slice(&ws.w_t);
         ws.f = f_t;

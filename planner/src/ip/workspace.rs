@@ -104,6 +104,12 @@ pub struct Workspace {
     pub dzu_aff: Vec<f64>,
     /// Scratch of length n + m.
     pub tmp_w: Vec<f64>,
+    /// grad f + J^T y over x, as [`super::residuals::compute_errors`] last formed it.
+    pub grad_lag: Vec<f64>,
+    /// `grad_lag` is that of the current (x, y) and derivatives: set by the solver after
+    /// the iteration's error computation, cleared when the iterate or its derivatives
+    /// change, so the Newton right-hand side reuses it instead of forming J^T y again.
+    pub grad_lag_fresh: bool,
     /// Scratch of length m.
     pub tmp_m: Vec<f64>,
 
@@ -189,6 +195,8 @@ impl Workspace {
             dzl_aff: v(nw),
             dzu_aff: v(nw),
             tmp_w: v(nw),
+            grad_lag: v(n),
+            grad_lag_fresh: false,
             tmp_m: v(m),
             best_w: v(nw),
             best_y: v(m),

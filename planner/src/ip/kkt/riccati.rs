@@ -697,19 +697,19 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     ) -> (SVector<f64, NX>, SVector<f64, NX>) {
         if fac.lambda_first {
             // (P + E^T E / delta) x = r1 + E^T r2 / delta, lambda = (E x - r2) / delta.
-            let mut x = r1 + fac.e.tr_mul(r2) / fac.delta;
+            let mut x = r1 + mtv(&fac.e, r2) / fac.delta;
             ldlt_solve_vec(&fac.sx_l, &fac.sx_d, &mut x);
-            let lambda = (fac.e * x - r2) / fac.delta;
+            let lambda = (mv(&fac.e, &x) - r2) / fac.delta;
             return (x, lambda);
         }
         // [[P^, I], [I, -Delta]]^-1 applied to (F^T r1, r2) gives (a, lambda), x = F a.
-        let q1 = fac.f.tr_mul(r1);
+        let q1 = mtv(&fac.f, r1);
         if fac.zero_delta {
-            (fac.f * r2, q1 + fac.a22 * r2)
+            (mv(&fac.f, r2), q1 + mv(&fac.a22, r2))
         } else {
-            let a = fac.a11 * q1 + fac.a12 * r2;
-            let b = fac.a12.tr_mul(&q1) + fac.a22 * r2;
-            (fac.f * a, b)
+            let a = mv(&fac.a11, &q1) + mv(&fac.a12, r2);
+            let b = mtv(&fac.a12, &q1) + mv(&fac.a22, r2);
+            (mv(&fac.f, &a), b)
         }
     }
 
@@ -939,15 +939,15 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             let fac = &self.factors[k];
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0).into_owned();
             let (x, lambda) = Self::apply_pair(fac, &r1, &self.bl[k]);
-            let upd = fac.y * x + fac.j.tr_mul(&lambda);
+            let upd = mv(&fac.y, &x) + mtv(&fac.j, &lambda);
             self.bz[k] -= upd;
             let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX).into_owned();
             ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
-            let ux = fac.q_ux.tr_mul(&t);
+            let ux = mtv(&fac.q_ux, &t);
             let mut head = self.bz[k].fixed_rows_mut::<NX>(0);
             head -= ux;
             if k > 0 {
-                let ur = fac.r * t;
+                let ur = mv(&fac.r, &t);
                 self.bz[k - 1] -= ur;
             }
         }
@@ -975,15 +975,15 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         for k in 0..big {
             let fac = &self.factors[k];
             let x: SVector<f64, NX> = self.bz[k].fixed_rows::<NX>(0).into_owned();
-            let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX) - fac.q_ux * x;
+            let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX) - mv(&fac.q_ux, &x);
             if k > 0 {
-                t -= fac.r.tr_mul(&self.bz[k - 1]);
+                t -= mtv(&fac.r, &self.bz[k - 1]);
             }
             ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
             self.bz[k].fixed_rows_mut::<NU>(NX).copy_from(&t);
             let z = self.bz[k];
-            let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - fac.y.tr_mul(&z);
-            let r2 = self.bl[k] - fac.j * z;
+            let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - mtv(&fac.y, &z);
+            let r2 = self.bl[k] - mv(&fac.j, &z);
             let (xn, lambda) = Self::apply_pair(fac, &r1, &r2);
             self.bz[k + 1].fixed_rows_mut::<NX>(0).copy_from(&xn);
             self.bl[k] = lambda;
@@ -1192,6 +1192,72 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     pending.data.0 = pd;
     fac.r.data.0 = rc;
     Ok(())
+}
+
+/// a x for a small column-major matrix (C >= 1): column axpys in column order, inlined
+/// into the caller's (baseline or AVX2) copy; nalgebra's generic gemv stayed out of line
+/// and ran in the baseline instruction set.
+#[inline(always)]
+fn mv<const R: usize, const C: usize>(
+    a: &SMatrix<f64, R, C>,
+    x: &SVector<f64, C>,
+) -> SVector<f64, R> {
+    // The first column initializes (as nalgebra's gemv does: same bits, signed zeros too).
+    let cols = &a.data.0;
+    let mut out: [f64; R] = std::array::from_fn(|r| cols[0][r] * x[0]);
+    for (col, &xc) in cols.iter().zip(x.as_slice()).skip(1) {
+        for (o, &v) in out.iter_mut().zip(col) {
+            *o += v * xc;
+        }
+    }
+    SVector::from(out)
+}
+
+/// a^T x for a small column-major matrix: one dot product per column ([`nadot`]).
+#[inline(always)]
+fn mtv<const R: usize, const C: usize>(
+    a: &SMatrix<f64, R, C>,
+    x: &SVector<f64, R>,
+) -> SVector<f64, C> {
+    let mut out = [0.0; C];
+    for (o, col) in out.iter_mut().zip(&a.data.0) {
+        *o = nadot(col, &x.data.0[0]);
+    }
+    SVector::from(out)
+}
+
+/// The dot product in nalgebra's summation order (0.35, `dotx`: closed forms for 2, 3 and 4
+/// entries; otherwise eight lanes per block of eight, combined pairwise, then a serial tail),
+/// so the inlined solves keep the bits of the nalgebra products they replace: the
+/// iterates, and hence the iteration counts, are sensitive to the last bit.
+#[inline(always)]
+fn nadot<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+    match D {
+        2 => return a[0] * b[0] + a[1] * b[1],
+        3 => return a[0] * b[0] + a[1] * b[1] + a[2] * b[2],
+        4 => {
+            let (x, y) = (a[0] * b[0] + a[2] * b[2], a[1] * b[1] + a[3] * b[3]);
+            return x + y;
+        }
+        _ => {}
+    }
+    let mut res = 0.0;
+    let mut i = 0;
+    let mut acc = [0.0; 8];
+    while D - i >= 8 {
+        for (l, v) in acc.iter_mut().enumerate() {
+            *v += a[i + l] * b[i + l];
+        }
+        i += 8;
+    }
+    res += acc[0] + acc[4];
+    res += acc[1] + acc[5];
+    res += acc[2] + acc[6];
+    res += acc[3] + acc[7];
+    for k in i..D {
+        res += a[k] * b[k];
+    }
+    res
 }
 
 /// out += sign a b for column arrays (out R x C, a R x K, b K x C): each term is an axpy of a
@@ -1551,6 +1617,53 @@ mod tests {
         e[(7, 7)] = 1.0;
         e[(8, 8)] = 1.0;
         e
+    }
+
+    /// Pseudo-random matrix with entries of mixed sign and magnitude (and some zeros).
+    fn scrambled<const R: usize, const C: usize>(seed: u64) -> SMatrix<f64, R, C> {
+        let mut state = seed;
+        SMatrix::from_fn(|_, _| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+            if u < 0.1 {
+                0.0
+            } else {
+                (u - 0.55) * 10f64.powi((state % 7) as i32 - 3)
+            }
+        })
+    }
+
+    fn same<const R: usize, const C: usize>(
+        a: &SMatrix<f64, R, C>,
+        b: &SMatrix<f64, R, C>,
+    ) -> bool {
+        a.iter()
+            .zip(b.iter())
+            .all(|(x, y)| x.to_bits() == y.to_bits())
+    }
+
+    /// The inlined products keep nalgebra's bits for every block shape the solves use.
+    #[test]
+    fn inlined_products_have_nalgebras_bits() {
+        fn check<const R: usize, const C: usize>(seed: u64) {
+            let a: SMatrix<f64, R, C> = scrambled(seed);
+            let x: SVector<f64, C> = scrambled(seed + 1);
+            let xt: SVector<f64, R> = scrambled(seed + 2);
+            assert!(same(&mv(&a, &x), &(a * x)), "a x, {R} x {C}");
+            assert!(same(&mtv(&a, &xt), &a.tr_mul(&xt)), "a^T x, {R} x {C}");
+        }
+        for seed in [1, 7, 42] {
+            check::<9, 9>(seed);
+            check::<12, 9>(seed);
+            check::<9, 12>(seed);
+            check::<3, 9>(seed);
+            check::<12, 3>(seed);
+            check::<2, 5>(seed);
+            check::<4, 4>(seed);
+            check::<17, 1>(seed);
+        }
     }
 
     #[test]

@@ -238,3 +238,42 @@ fn data_root_is_the_parent_of_the_scenario_folder() {
     assert_eq!(data_root_of(Path::new("scenarios/x.toml")), Path::new("."));
     assert_eq!(data_root_of(Path::new("x.toml")), Path::new("./.."));
 }
+
+/// The receding-horizon set is S01-S10 started 30 and 15 m earlier and later: the same
+/// road, shifted by 12 or 6 nodes (ds = 2.5 m), and the same problem otherwise.
+#[test]
+fn shifted_segments_are_the_benchmark_segments_moved_along_the_track() {
+    let path = data_root().join("scenarios/segments_shifted.toml");
+    let names = list_selections(&path).unwrap();
+    assert_eq!(names.len(), 40);
+    for shift in [-30i32, -15, 15, 30] {
+        for i in 1..=10 {
+            let base = scenario("segments.toml", Some(&format!("S{i:02}")));
+            let name = format!("S{i:02}{shift:+}");
+            assert!(names.contains(&name), "{name}");
+            let moved = scenario("segments_shifted.toml", Some(&name));
+            assert_sane(&moved);
+            assert_eq!(
+                (moved.n_intervals, moved.length, moved.v_max, moved.initial),
+                (base.n_intervals, base.length, base.v_max, base.initial)
+            );
+            let nodes = (shift.unsigned_abs() as f64 / base.ds()).round() as usize;
+            let n = base.n_intervals + 1;
+            for k in 0..n - nodes {
+                // Node k of the later start is node k + nodes of the earlier one.
+                let (early, late, kk) = if shift > 0 {
+                    (&base, &moved, k)
+                } else {
+                    (&moved, &base, k)
+                };
+                for (a, b) in [
+                    (&early.kappa, &late.kappa),
+                    (&early.e_min, &late.e_min),
+                    (&early.e_max, &late.e_max),
+                ] {
+                    assert!((a[kk + nodes] - b[kk]).abs() < 1e-12, "{name} node {k}");
+                }
+            }
+        }
+    }
+}

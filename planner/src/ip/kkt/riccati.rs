@@ -1292,6 +1292,9 @@ fn cached_inverse<const NX: usize, const NU: usize, const NZ: usize>(
         return Ok(fac.f);
     }
     let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
+    // Stored together here, not later in the stage: a stage that fails after this point
+    // (a zero pivot) must not leave an E paired with another E's inverse.
+    fac.f = f;
     fac.e_in = *e;
     Ok(f)
 }

@@ -591,3 +591,46 @@ fn refactorization_reuses_only_what_did_not_change() {
     let fresh_s = step(&mut riccati_for(&structure, &shifted), &shifted);
     assert_eq!(step(&mut reused, &shifted), fresh_s);
 }
+
+/// A stage that fails after its inversion (here an exactly zero Q_uu: stage 50's controls
+/// have no curvature, no barrier term and no constraint entries) must not leave its new E
+/// paired with the previous point's F for the next factorization.
+#[test]
+fn a_failed_stage_leaves_no_stale_inverse() {
+    let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
+    let structure = nlp.stage_structure().unwrap();
+    let mut rng = Rng(5);
+    let a = system(&mut nlp, &mut rng, 0.0, false);
+    let b = system(&mut nlp, &mut rng, 0.0, false);
+    let controls: Vec<usize> = (0..3).map(|j| 50 * 12 + 9 + j).collect();
+    let mut broken = a.clone();
+    for (v, c) in broken.jac.iter_mut().zip(&a.jc) {
+        if controls.contains(c) {
+            *v = 0.0;
+        }
+    }
+    for ((v, r), c) in broken.hess.iter_mut().zip(&a.hr).zip(&a.hc) {
+        if controls.contains(r) || controls.contains(c) {
+            *v = 0.0;
+        }
+    }
+    for &c in &controls {
+        broken.dx[c] = 0.0;
+    }
+    let bx: Vec<f64> = (0..a.n).map(|_| rng.range(-1.0, 1.0)).collect();
+    let by: Vec<f64> = (0..a.m).map(|_| rng.range(-1.0, 1.0)).collect();
+    let step = |kkt: &mut VehicleRiccati, s: &System| {
+        kkt.factorize(&s.values()).unwrap();
+        let (mut x, mut y) = (bx.clone(), by.clone());
+        kkt.solve(&mut x, &mut y);
+        x.into_iter()
+            .chain(y)
+            .map(f64::to_bits)
+            .collect::<Vec<u64>>()
+    };
+    let mut kkt = riccati_for(&structure, &a);
+    step(&mut kkt, &b);
+    assert!(kkt.factorize(&broken.values()).is_err());
+    let fresh = step(&mut riccati_for(&structure, &a), &a);
+    assert_eq!(step(&mut kkt, &a), fresh);
+}

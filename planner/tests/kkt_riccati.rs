@@ -12,7 +12,7 @@ use planner::ip::kkt::backend::VehicleRiccati;
 use planner::ip::kkt::{KktBackendKind, KktSolver, KktValues, SparseLdlt};
 use planner::ip::{Nlp, Status};
 use planner::ocp::transcription::ImplicitEulerNlp;
-use planner::ocp::{InitialState, OcpSpec};
+use planner::ocp::{InitialState, Layout, OcpSpec};
 use planner::plan::Planner;
 
 fn root() -> &'static Path {
@@ -555,6 +555,29 @@ fn simd_and_baseline_copies_agree_bit_for_bit() {
     }
 }
 
+/// KKT systems at two random points of the oval NLP, and the generator for what follows.
+fn two_points(nlp: &mut ImplicitEulerNlp<100>, seed: u64) -> (System, System, Rng) {
+    let mut rng = Rng(seed);
+    let a = system(nlp, &mut rng, 0.0, false);
+    let b = system(nlp, &mut rng, 0.0, false);
+    (a, b, rng)
+}
+
+/// A random right-hand side (x part, y part) for a system's dimensions.
+fn random_rhs(s: &System, rng: &mut Rng) -> (Vec<f64>, Vec<f64>) {
+    let bx = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
+    let by = (0..s.m).map(|_| rng.range(-1.0, 1.0)).collect();
+    (bx, by)
+}
+
+/// Factorizes `s` on `kkt`, solves for `rhs` and returns the step's bits.
+fn step_bits(kkt: &mut VehicleRiccati, s: &System, rhs: &(Vec<f64>, Vec<f64>)) -> Vec<u64> {
+    kkt.factorize(&s.values()).unwrap();
+    let (mut x, mut y) = rhs.clone();
+    kkt.solve(&mut x, &mut y);
+    x.into_iter().chain(y).map(f64::to_bits).collect()
+}
+
 /// The inertia-correcting refactorizations of an iteration change only the diagonals, and
 /// the backend then reuses its stage inverses F = E^-1: the steps must have the same bits
 /// as a fresh backend's. A changed Jacobian (the next iteration) must not reuse them.
@@ -562,20 +585,9 @@ fn simd_and_baseline_copies_agree_bit_for_bit() {
 fn refactorization_reuses_only_what_did_not_change() {
     let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
     let structure = nlp.stage_structure().unwrap();
-    let mut rng = Rng(11);
-    let a = system(&mut nlp, &mut rng, 0.0, false);
-    let b = system(&mut nlp, &mut rng, 0.0, false);
-    let bx: Vec<f64> = (0..a.n).map(|_| rng.range(-1.0, 1.0)).collect();
-    let by: Vec<f64> = (0..a.m).map(|_| rng.range(-1.0, 1.0)).collect();
-    let step = |kkt: &mut VehicleRiccati, s: &System| {
-        kkt.factorize(&s.values()).unwrap();
-        let (mut x, mut y) = (bx.clone(), by.clone());
-        kkt.solve(&mut x, &mut y);
-        x.into_iter()
-            .chain(y)
-            .map(f64::to_bits)
-            .collect::<Vec<u64>>()
-    };
+    let (a, b, mut rng) = two_points(&mut nlp, 11);
+    let rhs = random_rhs(&a, &mut rng);
+    let step = |kkt: &mut VehicleRiccati, s: &System| step_bits(kkt, s, &rhs);
     let mut reused = riccati_for(&structure, &a);
     step(&mut reused, &a);
     // Same Hessian and Jacobian, shifted diagonals (what an inertia correction does).
@@ -599,10 +611,9 @@ fn refactorization_reuses_only_what_did_not_change() {
 fn a_failed_stage_leaves_no_stale_inverse() {
     let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
     let structure = nlp.stage_structure().unwrap();
-    let mut rng = Rng(5);
-    let a = system(&mut nlp, &mut rng, 0.0, false);
-    let b = system(&mut nlp, &mut rng, 0.0, false);
-    let controls: Vec<usize> = (0..3).map(|j| 50 * 12 + 9 + j).collect();
+    let (a, b, mut rng) = two_points(&mut nlp, 5);
+    let layout = Layout::new(100, 0);
+    let controls: Vec<usize> = (0..3).map(|j| layout.u(50, j)).collect();
     let mut broken = a.clone();
     for (v, c) in broken.jac.iter_mut().zip(&a.jc) {
         if controls.contains(c) {
@@ -617,17 +628,8 @@ fn a_failed_stage_leaves_no_stale_inverse() {
     for &c in &controls {
         broken.dx[c] = 0.0;
     }
-    let bx: Vec<f64> = (0..a.n).map(|_| rng.range(-1.0, 1.0)).collect();
-    let by: Vec<f64> = (0..a.m).map(|_| rng.range(-1.0, 1.0)).collect();
-    let step = |kkt: &mut VehicleRiccati, s: &System| {
-        kkt.factorize(&s.values()).unwrap();
-        let (mut x, mut y) = (bx.clone(), by.clone());
-        kkt.solve(&mut x, &mut y);
-        x.into_iter()
-            .chain(y)
-            .map(f64::to_bits)
-            .collect::<Vec<u64>>()
-    };
+    let rhs = random_rhs(&a, &mut rng);
+    let step = |kkt: &mut VehicleRiccati, s: &System| step_bits(kkt, s, &rhs);
     let mut kkt = riccati_for(&structure, &a);
     step(&mut kkt, &b);
     assert!(kkt.factorize(&broken.values()).is_err());

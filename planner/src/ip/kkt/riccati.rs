@@ -167,6 +167,12 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     /// Jacobian entries have distinct targets: assigned, not summed, and the E, J
     /// regions need no zeroing.
     jac_assign: bool,
+    /// With `jac_assign`: the Hessian entries also have distinct targets, so they are
+    /// assigned (as 0 + h) and only `zero_targets` need zeroing, not the whole W, X region.
+    hess_assign: bool,
+    /// W, X entries written by the primal diagonal or the path rows but by no Hessian
+    /// entry (sorted); with `hess_assign` these are the only ones zeroed per assembly.
+    zero_targets: Vec<u32>,
     /// Columns of Y_k^T that can be nonzero: entries of z_{k-1} that some Hessian or
     /// path-row entry couples to z_k (X block columns); the common stage computes
     /// C^^T = F^T Y^T only there ([`fast_stage`]). On the vehicle OCP: t and the controls.
@@ -411,6 +417,19 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             });
         }
 
+        // Entries the Hessian does not write but the diagonal or the path rows add to.
+        let mut hess_targets = hess_map.clone();
+        hess_targets.sort_unstable();
+        hess_targets.dedup();
+        let hess_assign = jac_assign && hess_targets.len() == hess_map.len();
+        let mut zero_targets: Vec<u32> = (0..n)
+            .map(|i| w_at(i / NZ, i % NZ, i % NZ))
+            .chain(path_pairs.iter().map(|pp| pp.target))
+            .filter(|t| hess_targets.binary_search(t).is_err())
+            .collect();
+        zero_targets.sort_unstable();
+        zero_targets.dedup();
+
         // X block targets: column (z_{k-1} entry) = offset within the block / NZ.
         let x_col = |t: u32| ((t as usize).wrapping_sub(x_base) % (NZ * NZ)) / NZ;
         let in_x = |t: u32| (x_base..e_base).contains(&(t as usize));
@@ -437,6 +456,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             hess_map,
             jac_map,
             jac_assign,
+            hess_assign,
+            zero_targets,
             y_live,
             rows,
             path_w: vec![0.0; path_rows.len()],
@@ -469,12 +490,29 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     #[inline(always)]
     fn assemble(&mut self, v: &KktValues<'_>) -> Result<usize, KktError> {
         let arena = &mut self.arena;
-        if self.jac_assign {
+        if self.hess_assign {
+            // Every other W, X entry is zero since setup (nothing else writes there).
+            for &t in &self.zero_targets {
+                arena[t as usize] = 0.0;
+            }
+            for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
+                if a != NONE {
+                    arena[a as usize] = jv;
+                }
+            }
+            // 0 + h, not h: the bits of the summed version, signed zeros too.
+            for (&a, &h) in self.hess_map.iter().zip(v.hess) {
+                arena[a as usize] = 0.0 + h;
+            }
+        } else if self.jac_assign {
             arena[..self.e_base].fill(0.0);
             for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
                 if a != NONE {
                     arena[a as usize] = jv;
                 }
+            }
+            for (&a, &h) in self.hess_map.iter().zip(v.hess) {
+                arena[a as usize] += h;
             }
         } else {
             arena.fill(0.0);
@@ -483,9 +521,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                     arena[a as usize] += jv;
                 }
             }
-        }
-        for (&a, &h) in self.hess_map.iter().zip(v.hess) {
-            arena[a as usize] += h;
+            for (&a, &h) in self.hess_map.iter().zip(v.hess) {
+                arena[a as usize] += h;
+            }
         }
         for (i, &d) in v.primal_diag.iter().enumerate() {
             let (s, l) = (i / NZ, i % NZ);
@@ -1178,16 +1216,31 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     let rtc: [[f64; NU]; NZ] = std::array::from_fn(|i| std::array::from_fn(|k| rc[k][i]));
     let gt: [[f64; NX]; NU] = std::array::from_fn(|k| std::array::from_fn(|j| gm[j][k]));
     let mut ytn: [[f64; NX]; NZ] = std::array::from_fn(|i| std::array::from_fn(|j| xcc[i][j]));
-    mm_acc(&mut ytn, &gt, &rtc, -1.0);
-    yt.data.0 = ytn;
-    let mut rt = [[0.0; NU]; NZ];
-    for (col, ri) in rt.iter_mut().zip(&rtc) {
-        let mut v = SVector::<f64, NU>::from(*ri);
-        ldlt_solve_vec(&l, &d, &mut v);
-        *col = v.data.0[0];
-    }
+    // Only the live columns of X_{k-1} (hence of R^T) can be nonzero: the products below
+    // run over them alone. Elsewhere they would add exact zeros (+0 on a +0 start, so the
+    // bits, signed zeros included, are those of the full products).
     let mut pd = [[0.0; NZ]; NZ];
-    mm_acc(&mut pd, &rc, &rt, 1.0);
+    for (i, _) in y_live.iter().enumerate().filter(|(_, &l)| l) {
+        let mut acc = ytn[i];
+        for (gk, &r) in gt.iter().zip(&rtc[i]) {
+            let s = -r;
+            for (o, &x) in acc.iter_mut().zip(gk) {
+                *o += x * s;
+            }
+        }
+        ytn[i] = acc;
+        let mut v = SVector::<f64, NU>::from(rtc[i]);
+        ldlt_solve_vec(&l, &d, &mut v);
+        let rt = v.data.0[0];
+        let mut col = [0.0; NZ];
+        for (rk, &t) in rc.iter().zip(&rt) {
+            for (o, &x) in col.iter_mut().zip(rk) {
+                *o += x * t;
+            }
+        }
+        pd[i] = col;
+    }
+    yt.data.0 = ytn;
     sym_lower(&mut pd);
     pending.data.0 = pd;
     fac.r.data.0 = rc;

@@ -81,6 +81,8 @@ struct PathEntry {
 struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
     /// Dynamics Jacobian wrt z_k.
     j: SMatrix<f64, NX, NZ>,
+    /// J = [-I, G] (implicit Euler): the solves multiply by G alone.
+    j_minus_identity: bool,
     /// F = E^-1.
     f: SMatrix<f64, NX, NX>,
     /// The E that `f` inverts (NaN until the first factorization): the inertia-correcting
@@ -115,6 +117,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<
     fn default() -> Self {
         Self {
             j: SMatrix::zeros(),
+            j_minus_identity: false,
             f: SMatrix::zeros(),
             e_in: SMatrix::repeat(f64::NAN),
             zero_delta: true,
@@ -780,8 +783,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             };
             let fac = &mut self.factors[k];
             fac.j = j;
+            fac.j_minus_identity = minus_identity_head(&j);
             let zero_delta = all_zero(self.delta[k].as_slice());
-            let fast = zero_delta && minus_identity_head(&j);
+            let fast = zero_delta && fac.j_minus_identity;
             if fast {
                 fast_stage(
                     fac,
@@ -977,7 +981,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             let fac = &self.factors[k];
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0).into_owned();
             let (x, lambda) = Self::apply_pair(fac, &r1, &self.bl[k]);
-            let upd = mv(&fac.y, &x) + mtv(&fac.j, &lambda);
+            let upd = mv_rows(&fac.y, &x, &self.y_live) + jt_mul(fac, &lambda);
             self.bz[k] -= upd;
             let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX).into_owned();
             ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
@@ -1021,7 +1025,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             self.bz[k].fixed_rows_mut::<NU>(NX).copy_from(&t);
             let z = self.bz[k];
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - mtv(&fac.y, &z);
-            let r2 = self.bl[k] - mv(&fac.j, &z);
+            let r2 = self.bl[k] - j_mul(fac, &z);
             let (xn, lambda) = Self::apply_pair(fac, &r1, &r2);
             self.bz[k + 1].fixed_rows_mut::<NX>(0).copy_from(&xn);
             self.bl[k] = lambda;
@@ -1262,6 +1266,67 @@ fn mv<const R: usize, const C: usize>(
         for (o, &v) in out.iter_mut().zip(col) {
             *o += v * xc;
         }
+    }
+    SVector::from(out)
+}
+
+/// [`mv`] for a matrix whose rows outside `live` are zero: those entries of the result are
+/// +0 (the full product gives +-0 there), the others have [`mv`]'s bits.
+#[inline(always)]
+fn mv_rows<const R: usize, const C: usize>(
+    a: &SMatrix<f64, R, C>,
+    x: &SVector<f64, C>,
+    live: &[bool; R],
+) -> SVector<f64, R> {
+    let cols = &a.data.0;
+    let mut out = [0.0; R];
+    for (r, o) in out.iter_mut().enumerate().filter(|(r, _)| live[*r]) {
+        let mut acc = cols[0][r] * x[0];
+        for (col, &xc) in cols.iter().zip(x.as_slice()).skip(1) {
+            acc += col[r] * xc;
+        }
+        *o = acc;
+    }
+    SVector::from(out)
+}
+
+/// J_k z for the stage's dynamics Jacobian; with J = [-I, G] it is -x + G u, which has the
+/// bits of the full product [`mv`] (its zero terms only add +-0) up to the sign of a zero.
+#[inline(always)]
+fn j_mul<const NX: usize, const NU: usize, const NZ: usize>(
+    fac: &StageFactor<NX, NU, NZ>,
+    z: &SVector<f64, NZ>,
+) -> SVector<f64, NX> {
+    if !fac.j_minus_identity {
+        return mv(&fac.j, z);
+    }
+    let cols = &fac.j.data.0;
+    let mut out: [f64; NX] = std::array::from_fn(|r| -z[r]);
+    for (col, &u) in cols[NX..].iter().zip(&z.as_slice()[NX..]) {
+        for (o, &g) in out.iter_mut().zip(col) {
+            *o += g * u;
+        }
+    }
+    SVector::from(out)
+}
+
+/// J_k^T lambda; with J = [-I, G] it is (-lambda, G^T lambda), the bits of [`mtv`] up to
+/// the sign of a zero.
+#[inline(always)]
+fn jt_mul<const NX: usize, const NU: usize, const NZ: usize>(
+    fac: &StageFactor<NX, NU, NZ>,
+    lambda: &SVector<f64, NX>,
+) -> SVector<f64, NZ> {
+    if !fac.j_minus_identity {
+        return mtv(&fac.j, lambda);
+    }
+    let cols = &fac.j.data.0;
+    let mut out = [0.0; NZ];
+    for (o, &l) in out.iter_mut().zip(lambda.as_slice()) {
+        *o = -l;
+    }
+    for (o, col) in out[NX..].iter_mut().zip(&cols[NX..]) {
+        *o = nadot(col, &lambda.data.0[0]);
     }
     SVector::from(out)
 }
@@ -1719,6 +1784,53 @@ mod tests {
             check::<2, 5>(seed);
             check::<4, 4>(seed);
             check::<17, 1>(seed);
+        }
+    }
+
+    /// The structured products of the solves (J = [-I, G], rows of Y known to be zero)
+    /// give the full products' bits, up to the sign of a zero.
+    #[test]
+    fn structured_products_have_the_full_products_bits() {
+        fn same_value<const R: usize, const C: usize>(
+            a: &SMatrix<f64, R, C>,
+            b: &SMatrix<f64, R, C>,
+        ) -> bool {
+            a.iter()
+                .zip(b.iter())
+                .all(|(x, y)| x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0))
+        }
+        for seed in [3, 11, 99] {
+            let mut fac = StageFactor::<9, 3, 12>::default();
+            fac.j = scrambled(seed);
+            for c in 0..9 {
+                for r in 0..9 {
+                    fac.j[(r, c)] = if r == c { -1.0 } else { 0.0 };
+                }
+            }
+            fac.j_minus_identity = minus_identity_head(&fac.j);
+            assert!(fac.j_minus_identity);
+            let z: SVector<f64, 12> = scrambled(seed + 1);
+            let lambda: SVector<f64, 9> = scrambled(seed + 2);
+            assert!(same_value(&j_mul(&fac, &z), &(fac.j * z)));
+            assert!(same_value(&jt_mul(&fac, &lambda), &fac.j.tr_mul(&lambda)));
+            // Anything else goes through the general products.
+            fac.j[(4, 4)] = -0.5;
+            fac.j_minus_identity = minus_identity_head(&fac.j);
+            assert!(!fac.j_minus_identity);
+            assert!(same(&j_mul(&fac, &z), &(fac.j * z)));
+            assert!(same(&jt_mul(&fac, &lambda), &fac.j.tr_mul(&lambda)));
+
+            let live = [
+                false, true, false, false, false, false, false, true, false, true, true, true,
+            ];
+            let mut y: SMatrix<f64, 12, 9> = scrambled(seed + 3);
+            for (r, &l) in live.iter().enumerate() {
+                if !l {
+                    y.row_mut(r).fill(0.0);
+                }
+            }
+            let x: SVector<f64, 9> = scrambled(seed + 4);
+            assert!(same_value(&mv_rows(&y, &x, &live), &(y * x)));
         }
     }
 

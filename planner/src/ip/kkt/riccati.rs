@@ -1800,8 +1800,10 @@ mod tests {
                 .all(|(x, y)| x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0))
         }
         for seed in [3, 11, 99] {
-            let mut fac = StageFactor::<9, 3, 12>::default();
-            fac.j = scrambled(seed);
+            let mut fac = StageFactor::<9, 3, 12> {
+                j: scrambled(seed),
+                ..Default::default()
+            };
             for c in 0..9 {
                 for r in 0..9 {
                     fac.j[(r, c)] = if r == c { -1.0 } else { 0.0 };

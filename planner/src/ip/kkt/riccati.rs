@@ -498,33 +498,25 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             for &t in &self.zero_targets {
                 arena[t as usize] = 0.0;
             }
-            for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
-                if a != NONE {
-                    arena[a as usize] = jv;
-                }
-            }
-            // 0 + h, not h: the bits of the summed version, signed zeros too.
-            for (&a, &h) in self.hess_map.iter().zip(v.hess) {
-                arena[a as usize] = 0.0 + h;
-            }
         } else if self.jac_assign {
             arena[..self.e_base].fill(0.0);
-            for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
-                if a != NONE {
-                    arena[a as usize] = jv;
-                }
-            }
-            for (&a, &h) in self.hess_map.iter().zip(v.hess) {
-                arena[a as usize] += h;
-            }
         } else {
             arena.fill(0.0);
-            for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
-                if a != NONE {
+        }
+        for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
+            if a != NONE {
+                if self.jac_assign {
+                    arena[a as usize] = jv;
+                } else {
                     arena[a as usize] += jv;
                 }
             }
-            for (&a, &h) in self.hess_map.iter().zip(v.hess) {
+        }
+        for (&a, &h) in self.hess_map.iter().zip(v.hess) {
+            if self.hess_assign {
+                // 0 + h, not h: the bits of the summed version, signed zeros too.
+                arena[a as usize] = 0.0 + h;
+            } else {
                 arena[a as usize] += h;
             }
         }
@@ -608,14 +600,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         let j = fac.j;
         fac.zero_delta = delta.iter().all(|&d| d == 0.0);
         fac.lambda_first = false;
-        let minus_identity =
-            (0..NX).all(|c| (0..NX).all(|r| j[(r, c)] == if r == c { -1.0 } else { 0.0 }));
         if fac.zero_delta {
             // M^-1 = diag(F, I) [[0, I], [I, -P^]] diag(F^T, I): inertia (NX, NX).
             inertia.positive += NX;
             inertia.negative += NX;
             fac.a22 = -phat;
-            if minus_identity {
+            if fac.j_minus_identity {
                 // J = [-I, G]: Q = W~ - C^J - (C^J)^T + J^T P^ J written blockwise.
                 let g: SMatrix<f64, NX, NU> = j.fixed_view::<NX, NU>(0, NX).into_owned();
                 let cg = mul_nn(&fac.chat, &g);

@@ -9,7 +9,7 @@ use common::Rng;
 use planner::config::{load_scenario, load_solver, load_vehicle};
 use planner::guess::GuessKind;
 use planner::ip::kkt::backend::VehicleRiccati;
-use planner::ip::kkt::{KktBackendKind, KktSolver, KktValues, SparseLdlt};
+use planner::ip::kkt::{Inertia, KktBackendKind, KktError, KktSolver, KktValues, SparseLdlt};
 use planner::ip::{Nlp, Status};
 use planner::ocp::transcription::ImplicitEulerNlp;
 use planner::ocp::{InitialState, Layout, OcpSpec};
@@ -635,4 +635,55 @@ fn a_failed_stage_leaves_no_stale_inverse() {
     assert!(kkt.factorize(&broken.values()).is_err());
     let fresh = step(&mut riccati_for(&structure, &a), &a);
     assert_eq!(step(&mut kkt, &a), fresh);
+}
+
+/// Inertia correction only needs to know that the inertia is wrong: asked for (n, m),
+/// the sweep stops at the first stage with an excess negative pivot (here stage 50's
+/// controls, given a negative diagonal) and holds no factorization. The next
+/// factorization is the same as a fresh backend's, and a caller that expects any other
+/// inertia, or none, still gets the full count.
+#[test]
+fn wrong_inertia_stops_the_sweep_early() {
+    let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
+    let structure = nlp.stage_structure().unwrap();
+    let (mut a, _, mut rng) = two_points(&mut nlp, 7);
+    // A convex enough primal block: the correct inertia (n, m).
+    a.dx.iter_mut().for_each(|d| *d += 1e3);
+    let correct = Inertia {
+        positive: a.n,
+        negative: a.m,
+        zero: 0,
+    };
+    let layout = Layout::new(100, 0);
+    let mut bad = a.clone();
+    for j in 0..3 {
+        bad.dx[layout.u(50, j)] = -1e9;
+    }
+    let rhs = random_rhs(&a, &mut rng);
+    let mut kkt = riccati_for(&structure, &a);
+    assert_eq!(kkt.factorize(&a.values()).unwrap(), correct);
+    let full = kkt.factorize(&bad.values()).unwrap();
+    assert_ne!(full, correct);
+    assert_eq!(
+        kkt.factorize_expecting(&bad.values(), correct),
+        Err(KktError::WrongInertia)
+    );
+    let other = Inertia {
+        positive: a.n - 1,
+        ..correct
+    };
+    assert_eq!(kkt.factorize_expecting(&bad.values(), other).unwrap(), full);
+    assert_eq!(kkt.factorize(&bad.values()).unwrap(), full);
+    assert_eq!(
+        kkt.factorize_expecting(&bad.values(), correct),
+        Err(KktError::WrongInertia)
+    );
+    assert_eq!(
+        kkt.factorize_expecting(&a.values(), correct).unwrap(),
+        correct
+    );
+    let (mut x, mut y) = rhs.clone();
+    kkt.solve(&mut x, &mut y);
+    let bits: Vec<u64> = x.into_iter().chain(y).map(f64::to_bits).collect();
+    assert_eq!(bits, step_bits(&mut riccati_for(&structure, &a), &a, &rhs));
 }

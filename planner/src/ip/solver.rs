@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::barrier;
 use super::info::{IterLog, PhaseTimes, SolveInfo, Status, StepKind};
 use super::kkt::backend::{BackendError, Pattern};
-use super::kkt::{KktBackend, KktError, KktSolver, KktValues};
+use super::kkt::{Inertia, KktBackend, KktError, KktSolver, KktValues};
 use super::nlp::Nlp;
 use super::residuals::{self, compute_errors, Errors};
 use super::settings::{BarrierRule, Globalization, Settings};
@@ -781,14 +781,22 @@ impl<K: KktSolver> Solver<K> {
             self.fill_diagonals(delta_w, delta_c);
             count += 1;
             let ws = &self.ws;
-            let res = self.kkt.factorize(&KktValues {
-                hess: &ws.hess,
-                jac: &ws.jac,
-                primal_diag: &ws.primal_diag,
-                dual_diag: &ws.dual_diag,
-            });
+            let expected = Inertia {
+                positive: n,
+                negative: m,
+                zero: 0,
+            };
+            let res = self.kkt.factorize_expecting(
+                &KktValues {
+                    hess: &ws.hess,
+                    jac: &ws.jac,
+                    primal_diag: &ws.primal_diag,
+                    dual_diag: &ws.dual_diag,
+                },
+                expected,
+            );
             match res {
-                Ok(inertia) if inertia.positive == n && inertia.negative == m => {
+                Ok(inertia) if inertia == expected => {
                     // A shift at the floor is forgotten: the next iteration tries zero again.
                     self.delta_w_last = if delta_w > DELTA_W_FLOOR {
                         delta_w
@@ -801,7 +809,8 @@ impl<K: KktSolver> Solver<K> {
                         fallback: false,
                     });
                 }
-                Ok(_) => {}
+                // Wrong inertia, found at the end or (stopped early) on the way.
+                Ok(_) | Err(KktError::WrongInertia) => {}
                 Err(KktError::Singular) => {
                     delta_c = delta_c.max(1e-8 * mu.max(1e-12).powf(0.25));
                 }

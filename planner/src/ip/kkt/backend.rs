@@ -147,22 +147,45 @@ impl KktBackend {
     pub fn fallbacks(&self) -> usize {
         self.fallbacks
     }
-}
 
-impl KktSolver for KktBackend {
-    fn factorize(&mut self, values: &KktValues<'_>) -> Result<Inertia, KktError> {
+    /// Riccati where it can, else sparse; `expected` as in
+    /// [`KktSolver::factorize_expecting`].
+    fn factorize_with(
+        &mut self,
+        values: &KktValues<'_>,
+        expected: Option<Inertia>,
+    ) -> Result<Inertia, KktError> {
         self.on_sparse = false;
         if let Some(r) = self.riccati.as_mut() {
-            match r.factorize(values) {
+            let res = match expected {
+                Some(e) => r.factorize_expecting(values, e),
+                None => r.factorize(values),
+            };
+            match res {
                 Err(KktError::Unsupported) => self.fallbacks += 1,
                 res => return res,
             }
         }
         self.on_sparse = true;
-        match self.sparse.as_mut() {
-            Some(s) => s.factorize(values),
-            None => Err(KktError::Unsupported),
+        match (self.sparse.as_mut(), expected) {
+            (Some(s), Some(e)) => s.factorize_expecting(values, e),
+            (Some(s), None) => s.factorize(values),
+            (None, _) => Err(KktError::Unsupported),
         }
+    }
+}
+
+impl KktSolver for KktBackend {
+    fn factorize(&mut self, values: &KktValues<'_>) -> Result<Inertia, KktError> {
+        self.factorize_with(values, None)
+    }
+
+    fn factorize_expecting(
+        &mut self,
+        values: &KktValues<'_>,
+        expected: Inertia,
+    ) -> Result<Inertia, KktError> {
+        self.factorize_with(values, Some(expected))
     }
 
     /// The Riccati backend factorizes the exact system; with only the sparse one the base

@@ -60,12 +60,28 @@ pub enum KktError {
     /// dynamics Jacobian E_k); a general backend can.
     #[error("values outside what the structured KKT backend handles")]
     Unsupported,
+    /// [`KktSolver::factorize_expecting`] stopped early: the inertia is not the expected
+    /// one, and no factorization is held.
+    #[error("KKT inertia differs from the expected one (factorization stopped early)")]
+    WrongInertia,
 }
 
 /// A factorization backend for the condensed KKT system.
 pub trait KktSolver {
     /// Factorizes the system with these values and returns its inertia. Must not allocate.
     fn factorize(&mut self, values: &KktValues<'_>) -> Result<Inertia, KktError>;
+    /// As [`KktSolver::factorize`], for a caller that only needs the factorization when
+    /// its inertia is `expected` (inertia correction): a backend may stop as soon as the
+    /// inertia is known to differ and return [`KktError::WrongInertia`], holding no
+    /// factorization. Must not allocate.
+    fn factorize_expecting(
+        &mut self,
+        values: &KktValues<'_>,
+        expected: Inertia,
+    ) -> Result<Inertia, KktError> {
+        let _ = expected;
+        self.factorize(values)
+    }
     /// Solves with the last factorization: `rhs_x` (length n) and `rhs_y` (length m) are
     /// overwritten by `dx` and `dy`. Must not allocate.
     fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]);

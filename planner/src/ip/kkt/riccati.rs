@@ -209,6 +209,9 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     bz: Vec<SVector<f64, NZ>>,
     bl: Vec<SVector<f64, NX>>,
     factorized: bool,
+    /// Set by [`KktSolver::factorize_expecting`] with the correct inertia (n, m): the sweep
+    /// stops at the first block with more negative pivots than its share.
+    stop_on_excess: bool,
     /// Factorize and solve in code compiled for AVX2 (set from [`avx2_available`]).
     simd: bool,
 }
@@ -484,6 +487,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             bz: vec![SVector::zeros(); big + 1],
             bl: vec![SVector::zeros(); big + 1],
             factorized: false,
+            stop_on_excess: false,
             simd: crate::cpu::avx2_available(),
         })
     }
@@ -788,6 +792,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                     &y_live,
                     &mut inertia,
                 )?;
+                self.check_excess(&inertia, negative_path, big - k)?;
                 continue;
             }
             fac.y = yt.transpose();
@@ -816,9 +821,29 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             } else {
                 fac.r = SMatrix::zeros();
             }
+            self.check_excess(&inertia, negative_path, big - k)?;
         }
         self.factorize_initial(&p, &mut inertia)?;
         Ok(inertia)
+    }
+
+    /// With `stop_on_excess`: [`KktError::WrongInertia`] once the path rows and `done`
+    /// stages hold more negative pivots than their share (one per path row, NX per pair
+    /// step, none in Q_uu). Every block's negative count is at least its share (the pair
+    /// and the initial block have a nonsingular off-diagonal E), and the shares add up to
+    /// m, so an excess anywhere means the total inertia is not (n, m).
+    #[inline(always)]
+    fn check_excess(
+        &self,
+        inertia: &Inertia,
+        negative_path: usize,
+        done: usize,
+    ) -> Result<(), KktError> {
+        if self.stop_on_excess && inertia.negative > negative_path + done * NX {
+            Err(KktError::WrongInertia)
+        } else {
+            Ok(())
+        }
     }
 
     /// The initial block [[P_0, E^T], [E, -Delta]] by Bunch-Kaufman (step 3).
@@ -1043,6 +1068,16 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
     }
 
+    /// The factorization in the AVX2 or the baseline copy (see [`Self::set_simd`]).
+    fn factorize_dispatch(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2 (`avx2_available`).
+            return unsafe { self.factorize_avx2(v) };
+        }
+        self.factorize_body(v)
+    }
+
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,avx2")]
     unsafe fn factorize_avx2(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
@@ -1058,12 +1093,20 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
 
 impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt<NX, NU, NZ> {
     fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.simd {
-            // SAFETY: `simd` is only true when the CPU reports AVX2 (`avx2_available`).
-            return unsafe { self.factorize_avx2(v) };
-        }
-        self.factorize_body(v)
+        self.stop_on_excess = false;
+        self.factorize_dispatch(v)
+    }
+
+    fn factorize_expecting(
+        &mut self,
+        v: &KktValues<'_>,
+        expected: Inertia,
+    ) -> Result<Inertia, KktError> {
+        self.stop_on_excess =
+            expected.positive == self.n && expected.negative == self.m && expected.zero == 0;
+        let res = self.factorize_dispatch(v);
+        self.stop_on_excess = false;
+        res
     }
 
     fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {

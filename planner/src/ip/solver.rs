@@ -772,6 +772,11 @@ impl<K: KktSolver> Solver<K> {
         } else {
             0.0
         };
+        let expected = Inertia {
+            positive: n,
+            negative: m,
+            zero: 0,
+        };
         let mut count = 0;
         // Inertia-correcting attempts; the last factorization allowed is the fallback's.
         let attempts = s
@@ -781,11 +786,6 @@ impl<K: KktSolver> Solver<K> {
             self.fill_diagonals(delta_w, delta_c);
             count += 1;
             let ws = &self.ws;
-            let expected = Inertia {
-                positive: n,
-                negative: m,
-                zero: 0,
-            };
             let res = self.kkt.factorize_expecting(
                 &KktValues {
                     hess: &ws.hess,

@@ -209,9 +209,6 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     bz: Vec<SVector<f64, NZ>>,
     bl: Vec<SVector<f64, NX>>,
     factorized: bool,
-    /// Set by [`KktSolver::factorize_expecting`] with the correct inertia (n, m): the sweep
-    /// stops at the first block with more negative pivots than its share.
-    stop_on_excess: bool,
     /// Factorize and solve in code compiled for AVX2 (set from [`avx2_available`]).
     simd: bool,
 }
@@ -487,7 +484,6 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             bz: vec![SVector::zeros(); big + 1],
             bl: vec![SVector::zeros(); big + 1],
             factorized: false,
-            stop_on_excess: false,
             simd: crate::cpu::avx2_available(),
         })
     }
@@ -749,7 +745,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     }
 
     #[inline(always)]
-    fn factorize_blocks(&mut self, negative_path: usize) -> Result<Inertia, KktError> {
+    fn factorize_blocks(
+        &mut self,
+        negative_path: usize,
+        stop_on_excess: bool,
+    ) -> Result<Inertia, KktError> {
         let big = self.stages;
         let mut inertia = Inertia {
             positive: 0,
@@ -792,7 +792,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                     &y_live,
                     &mut inertia,
                 )?;
-                self.check_excess(&inertia, negative_path, big - k)?;
+                check_excess::<NX>(stop_on_excess, &inertia, negative_path, big - k)?;
                 continue;
             }
             fac.y = yt.transpose();
@@ -821,29 +821,10 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             } else {
                 fac.r = SMatrix::zeros();
             }
-            self.check_excess(&inertia, negative_path, big - k)?;
+            check_excess::<NX>(stop_on_excess, &inertia, negative_path, big - k)?;
         }
         self.factorize_initial(&p, &mut inertia)?;
         Ok(inertia)
-    }
-
-    /// With `stop_on_excess`: [`KktError::WrongInertia`] once the path rows and `done`
-    /// stages hold more negative pivots than their share (one per path row, NX per pair
-    /// step, none in Q_uu). Every block's negative count is at least its share (the pair
-    /// and the initial block have a nonsingular off-diagonal E), and the shares add up to
-    /// m, so an excess anywhere means the total inertia is not (n, m).
-    #[inline(always)]
-    fn check_excess(
-        &self,
-        inertia: &Inertia,
-        negative_path: usize,
-        done: usize,
-    ) -> Result<(), KktError> {
-        if self.stop_on_excess && inertia.negative > negative_path + done * NX {
-            Err(KktError::WrongInertia)
-        } else {
-            Ok(())
-        }
     }
 
     /// The initial block [[P_0, E^T], [E, -Delta]] by Bunch-Kaufman (step 3).
@@ -941,7 +922,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
 
     /// The factorization, inlined into both the baseline and the AVX2 entry point.
     #[inline(always)]
-    fn factorize_body(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+    fn factorize_body(
+        &mut self,
+        v: &KktValues<'_>,
+        stop_on_excess: bool,
+    ) -> Result<Inertia, KktError> {
         self.factorized = false;
         let finite = |a: &[f64]| {
             // x * 0 is NaN for NaN and +-inf; four independent sums vectorize.
@@ -959,7 +944,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             return Err(KktError::NonFinite);
         }
         let negative_path = self.assemble(v)?;
-        let inertia = self.factorize_blocks(negative_path)?;
+        let inertia = self.factorize_blocks(negative_path, stop_on_excess)?;
         self.factorized = true;
         Ok(inertia)
     }
@@ -1068,20 +1053,29 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
     }
 
-    /// The factorization in the AVX2 or the baseline copy (see [`Self::set_simd`]).
-    fn factorize_dispatch(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
+    /// The factorization in the AVX2 or the baseline copy (see [`Self::set_simd`]);
+    /// `stop_on_excess` as in [`check_excess`].
+    fn factorize_dispatch(
+        &mut self,
+        v: &KktValues<'_>,
+        stop_on_excess: bool,
+    ) -> Result<Inertia, KktError> {
         #[cfg(target_arch = "x86_64")]
         if self.simd {
             // SAFETY: `simd` is only true when the CPU reports AVX2 (`avx2_available`).
-            return unsafe { self.factorize_avx2(v) };
+            return unsafe { self.factorize_avx2(v, stop_on_excess) };
         }
-        self.factorize_body(v)
+        self.factorize_body(v, stop_on_excess)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,avx2")]
-    unsafe fn factorize_avx2(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
-        self.factorize_body(v)
+    unsafe fn factorize_avx2(
+        &mut self,
+        v: &KktValues<'_>,
+        stop_on_excess: bool,
+    ) -> Result<Inertia, KktError> {
+        self.factorize_body(v, stop_on_excess)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -1093,8 +1087,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
 
 impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt<NX, NU, NZ> {
     fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
-        self.stop_on_excess = false;
-        self.factorize_dispatch(v)
+        self.factorize_dispatch(v, false)
     }
 
     fn factorize_expecting(
@@ -1102,11 +1095,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
         v: &KktValues<'_>,
         expected: Inertia,
     ) -> Result<Inertia, KktError> {
-        self.stop_on_excess =
+        let correct =
             expected.positive == self.n && expected.negative == self.m && expected.zero == 0;
-        let res = self.factorize_dispatch(v);
-        self.stop_on_excess = false;
-        res
+        self.factorize_dispatch(v, correct)
     }
 
     fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
@@ -1120,6 +1111,26 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
 
     fn wants_dual_regularization(&self) -> bool {
         false
+    }
+}
+
+/// With `stop_on_excess` (the caller expects the correct inertia (n, m)):
+/// [`KktError::WrongInertia`] once the path rows and `done` stages hold more negative pivots
+/// than their share (one per path row, NX per pair step, none in Q_uu). Every block's
+/// negative count is at least its share (the pair and the initial block have a nonsingular
+/// off-diagonal E), and the shares add up to m, so an excess anywhere means the total
+/// inertia is not (n, m).
+#[inline(always)]
+fn check_excess<const NX: usize>(
+    stop_on_excess: bool,
+    inertia: &Inertia,
+    negative_path: usize,
+    done: usize,
+) -> Result<(), KktError> {
+    if stop_on_excess && inertia.negative > negative_path + done * NX {
+        Err(KktError::WrongInertia)
+    } else {
+        Ok(())
     }
 }
 

@@ -49,8 +49,8 @@ enum Row {
     Path(u32),
 }
 
-/// A path row: its Jacobian entries in `path_entries` and the arena targets of its
-/// outer product in `path_pairs`.
+/// A path row: its Jacobian entries in `path_entries` and (at setup) the range of its
+/// outer product's terms among the path pairs.
 #[derive(Debug, Clone, Copy)]
 struct PathRow {
     start: usize,
@@ -76,6 +76,51 @@ struct PathEntry {
     local: u16,
 }
 
+/// One assembly unit: the arena blocks the sweep reads at one of its stages, so the sweep can
+/// run as soon as its unit is written (unit k < N: W_k, E_k, J_k and X_{k-1}; unit N: W_N and
+/// X_{N-1}; E_N, the initial rows, rides with unit 0, read last). Ranges into the `u_*` op
+/// lists, whose ops keep the order of the whole-arena assembly: every entry sums its terms in
+/// the same order, so the bits do not depend on how the units are scheduled.
+#[derive(Debug, Clone, Copy, Default)]
+struct Unit {
+    zero: (u32, u32),
+    jac: (u32, u32),
+    hess: (u32, u32),
+    diag: (u32, u32),
+    pairs: (u32, u32),
+}
+
+/// One term of a path row's J_r^T J_r / |D_c| by Jacobian value indices.
+#[derive(Debug, Clone, Copy)]
+struct UnitPair {
+    /// Path row (its weight 1 / |D_c| in `path_w`).
+    row: u32,
+    a: u32,
+    b: u32,
+    target: u32,
+}
+
+/// E_k^-1, computed with unit k and reused while E_k keeps its bits (the
+/// inertia-correcting refactorizations of an iteration change only diagonals).
+#[derive(Debug, Clone)]
+struct StageInverse<const NX: usize> {
+    f: SMatrix<f64, NX, NX>,
+    /// The E that `f` inverts (NaN until the first success).
+    e_in: SMatrix<f64, NX, NX>,
+    /// Whether E_k of the current assembly is invertible (`f` is its inverse).
+    ok: bool,
+}
+
+impl<const NX: usize> Default for StageInverse<NX> {
+    fn default() -> Self {
+        Self {
+            f: SMatrix::zeros(),
+            e_in: SMatrix::repeat(f64::NAN),
+            ok: false,
+        }
+    }
+}
+
 /// Factors of one stage, kept for the solves.
 #[derive(Debug, Clone)]
 struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
@@ -85,10 +130,6 @@ struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
     j_minus_identity: bool,
     /// F = E^-1.
     f: SMatrix<f64, NX, NX>,
-    /// The E that `f` inverts (NaN until the first factorization): the inertia-correcting
-    /// refactorizations of an iteration change only diagonals, so F is reused when E has
-    /// the same bits.
-    e_in: SMatrix<f64, NX, NX>,
     /// Delta_k = 0: [[P^, I], [I, 0]]^-1 = [[0, I], [I, -P^]] and a11, a12 are unused.
     zero_delta: bool,
     /// Blocks of [[P^, I], [I, -Delta]]^-1 = [[a11, a12], [a12^T, a22]].
@@ -119,7 +160,6 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<
             j: SMatrix::zeros(),
             j_minus_identity: false,
             f: SMatrix::zeros(),
-            e_in: SMatrix::repeat(f64::NAN),
             zero_delta: true,
             lambda_first: false,
             sx_l: SMatrix::zeros(),
@@ -162,20 +202,13 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     n: usize,
     m: usize,
     stages: usize,
-    /// Arena index of every Hessian value (W blocks hold only their lower triangle until
-    /// they are read).
-    hess_map: Vec<u32>,
-    /// Arena index of every Jacobian value (NONE for path rows).
-    jac_map: Vec<u32>,
     /// Jacobian entries have distinct targets: assigned, not summed, and the E, J
     /// regions need no zeroing.
     jac_assign: bool,
     /// With `jac_assign`: the Hessian entries also have distinct targets, so they are
-    /// assigned (as 0 + h) and only `zero_targets` need zeroing, not the whole W, X region.
+    /// assigned (as 0 + h), and only the W, X entries that no Hessian value writes (the
+    /// primal diagonal's and the path rows') are zeroed, not the whole W, X region.
     hess_assign: bool,
-    /// W, X entries written by the primal diagonal or the path rows but by no Hessian
-    /// entry (sorted); with `hess_assign` these are the only ones zeroed per assembly.
-    zero_targets: Vec<u32>,
     /// Columns of Y_k^T that can be nonzero: entries of z_{k-1} that some Hessian or
     /// path-row entry couples to z_k (X block columns); the common stage computes
     /// C^^T = F^T Y^T only there ([`fast_stage`]). On the vehicle OCP: t and the controls.
@@ -183,7 +216,15 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     rows: Vec<Row>,
     path_rows: Vec<PathRow>,
     path_entries: Vec<PathEntry>,
-    path_pairs: Vec<PathPair>,
+    /// The assembly by units (see [`Unit`]): index k < N for stage k, index N (swept first)
+    /// for W_N and X_{N-1}.
+    units: Vec<Unit>,
+    u_zero: Vec<(u32, u32)>,
+    u_jac: Vec<(u32, u32)>,
+    u_hess: Vec<(u32, u32)>,
+    u_diag: Vec<(u32, u32)>,
+    u_pairs: Vec<UnitPair>,
+    inverses: Vec<StageInverse<NX>>,
     /// All assembled blocks, column-major: W_k (k = 0..=N; W_N uses the NX x NX corner),
     /// X_k (rows z_{k+1}, columns z_k), E_k (index N: initial rows), J_k.
     arena: Vec<f64>,
@@ -220,7 +261,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> std::fmt::Debug for Ricc
             .field("m", &self.m)
             .field("stages", &self.stages)
             .field("path_rows", &self.path_rows.len())
-            .field("path_pairs", &self.path_pairs.len())
+            .field("path_pairs", &self.u_pairs.len())
             .field("y_live", &self.y_live)
             .finish()
     }
@@ -445,6 +486,84 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 y_live[x_col(t)] = true;
             }
         }
+        // Assembly units (see `Unit`).
+        let unit_of = |t: u32| -> usize {
+            let t = t as usize;
+            if t < x_base {
+                t / (NZ * NZ)
+            } else if t < e_base {
+                (t - x_base) / (NZ * NZ) + 1
+            } else if t < j_base {
+                let s = (t - e_base) / (NX * NX);
+                if s < big {
+                    s
+                } else {
+                    0
+                }
+            } else {
+                (t - j_base) / (NX * NZ)
+            }
+        };
+        let mut zero_u: Vec<Vec<(u32, u32)>> = vec![Vec::new(); big + 1];
+        if hess_assign {
+            for &t in &zero_targets {
+                zero_u[unit_of(t)].push((t, 1));
+            }
+        } else {
+            let mut blocks: Vec<(usize, usize)> =
+                (0..=big).map(|s| (s * NZ * NZ, NZ * NZ)).collect();
+            blocks.extend((0..big).map(|s| (x_base + s * NZ * NZ, NZ * NZ)));
+            if !jac_assign {
+                blocks.extend((0..=big).map(|s| (e_base + s * NX * NX, NX * NX)));
+                blocks.extend((0..big).map(|s| (j_base + s * NX * NZ, NX * NZ)));
+            }
+            for (start, len) in blocks {
+                zero_u[unit_of(start as u32)].push((start as u32, len as u32));
+            }
+        }
+        let mut jac_u: Vec<Vec<(u32, u32)>> = vec![Vec::new(); big + 1];
+        for (q, &t) in jac_map.iter().enumerate() {
+            if t != NONE {
+                jac_u[unit_of(t)].push((q as u32, t));
+            }
+        }
+        let mut hess_u: Vec<Vec<(u32, u32)>> = vec![Vec::new(); big + 1];
+        for (q, &t) in hess_map.iter().enumerate() {
+            hess_u[unit_of(t)].push((q as u32, t));
+        }
+        let mut diag_u: Vec<Vec<(u32, u32)>> = vec![Vec::new(); big + 1];
+        for i in 0..n {
+            let t = w_at(i / NZ, i % NZ, i % NZ);
+            diag_u[unit_of(t)].push((i as u32, t));
+        }
+        let mut pairs_u: Vec<Vec<UnitPair>> = vec![Vec::new(); big + 1];
+        for (row, pr) in path_rows.iter().enumerate() {
+            for pp in &path_pairs[pr.pairs_start..pr.pairs_end] {
+                pairs_u[unit_of(pp.target)].push(UnitPair {
+                    row: row as u32,
+                    a: path_entries[pr.start + pp.a as usize].jac as u32,
+                    b: path_entries[pr.start + pp.b as usize].jac as u32,
+                    target: pp.target,
+                });
+            }
+        }
+        fn flatten<T: Copy>(per: &[Vec<T>], out: &mut Vec<T>, k: usize) -> (u32, u32) {
+            let start = out.len() as u32;
+            out.extend_from_slice(&per[k]);
+            (start, out.len() as u32)
+        }
+        let (mut u_zero, mut u_jac, mut u_hess, mut u_diag, mut u_pairs) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let units = (0..=big)
+            .map(|k| Unit {
+                zero: flatten(&zero_u, &mut u_zero, k),
+                jac: flatten(&jac_u, &mut u_jac, k),
+                hess: flatten(&hess_u, &mut u_hess, k),
+                diag: flatten(&diag_u, &mut u_diag, k),
+                pairs: flatten(&pairs_u, &mut u_pairs, k),
+            })
+            .collect();
+
         let dim = 2 * NX;
         let params = Default::default();
         let mem = MemBuffer::new(
@@ -456,18 +575,21 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             n,
             m,
             stages: big,
-            hess_map,
-            jac_map,
             jac_assign,
             hess_assign,
-            zero_targets,
             y_live,
             rows,
             path_w: vec![0.0; path_rows.len()],
             path_vals: vec![0.0; path_entries.len()],
             path_rows,
             path_entries,
-            path_pairs,
+            units,
+            u_zero,
+            u_jac,
+            u_hess,
+            u_diag,
+            u_pairs,
+            inverses: vec![StageInverse::default(); big],
             arena: vec![0.0; arena_len],
             x_base,
             e_base,
@@ -488,42 +610,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         })
     }
 
-    /// Writes the KKT values into the block arena, the path rows eliminated into W and X
-    /// (step 1). Returns the number of path rows (one negative eigenvalue each).
+    /// The row terms of the KKT values (Delta of the dynamics and initial rows, the path
+    /// rows' weights and Jacobian values); the blocks follow unit by unit
+    /// ([`Self::assemble_unit`]). Returns the number of path rows (one negative eigenvalue
+    /// each).
     #[inline(always)]
-    fn assemble(&mut self, v: &KktValues<'_>) -> Result<usize, KktError> {
-        let arena = &mut self.arena;
-        if self.hess_assign {
-            // Every other W, X entry is zero since setup (nothing else writes there).
-            for &t in &self.zero_targets {
-                arena[t as usize] = 0.0;
-            }
-        } else if self.jac_assign {
-            arena[..self.e_base].fill(0.0);
-        } else {
-            arena.fill(0.0);
-        }
-        for (&a, &jv) in self.jac_map.iter().zip(v.jac) {
-            if a != NONE {
-                if self.jac_assign {
-                    arena[a as usize] = jv;
-                } else {
-                    arena[a as usize] += jv;
-                }
-            }
-        }
-        for (&a, &h) in self.hess_map.iter().zip(v.hess) {
-            if self.hess_assign {
-                // 0 + h, not h: the bits of the summed version, signed zeros too.
-                arena[a as usize] = 0.0 + h;
-            } else {
-                arena[a as usize] += h;
-            }
-        }
-        for (i, &d) in v.primal_diag.iter().enumerate() {
-            let (s, l) = (i / NZ, i % NZ);
-            arena[s * NZ * NZ + l * NZ + l] += d;
-        }
+    fn prepare(&mut self, v: &KktValues<'_>) -> Result<usize, KktError> {
         let big = self.stages;
         for (r, &d) in v.dual_diag.iter().enumerate() {
             match self.rows[r] {
@@ -537,17 +629,68 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 }
             }
         }
-        // W += J_r^T J_r / |D_c| over the path rows (X for pairs across two stages).
-        for (pr, &wgt) in self.path_rows.iter().zip(&self.path_w) {
-            let vals = &mut self.path_vals[pr.start..pr.end];
-            for (val, e) in vals.iter_mut().zip(&self.path_entries[pr.start..pr.end]) {
-                *val = v.jac[e.jac];
-            }
-            for pp in &self.path_pairs[pr.pairs_start..pr.pairs_end] {
-                arena[pp.target as usize] += wgt * vals[pp.a as usize] * vals[pp.b as usize];
-            }
+        for (val, e) in self.path_vals.iter_mut().zip(&self.path_entries) {
+            *val = v.jac[e.jac];
         }
         Ok(self.path_rows.len())
+    }
+
+    /// Writes unit `k` of the arena (see [`Unit`]): zeroes, Jacobian and Hessian values,
+    /// the primal diagonal, then W += J_r^T J_r / |D_c| over the path rows (X for pairs
+    /// across two stages); for a stage unit also E_k^-1 (reused while E_k keeps its bits).
+    #[inline(always)]
+    fn assemble_unit(&mut self, k: usize, v: &KktValues<'_>) {
+        let u = self.units[k];
+        let arena = &mut self.arena;
+        let span = |r: (u32, u32)| r.0 as usize..r.1 as usize;
+        for &(t, len) in &self.u_zero[span(u.zero)] {
+            if len == 1 {
+                arena[t as usize] = 0.0;
+            } else {
+                arena[t as usize..(t + len) as usize].fill(0.0);
+            }
+        }
+        for &(q, t) in &self.u_jac[span(u.jac)] {
+            let jv = v.jac[q as usize];
+            if self.jac_assign {
+                arena[t as usize] = jv;
+            } else {
+                arena[t as usize] += jv;
+            }
+        }
+        for &(q, t) in &self.u_hess[span(u.hess)] {
+            let h = v.hess[q as usize];
+            if self.hess_assign {
+                // 0 + h, not h: the bits of the summed version, signed zeros too.
+                arena[t as usize] = 0.0 + h;
+            } else {
+                arena[t as usize] += h;
+            }
+        }
+        for &(i, t) in &self.u_diag[span(u.diag)] {
+            arena[t as usize] += v.primal_diag[i as usize];
+        }
+        for pp in &self.u_pairs[span(u.pairs)] {
+            arena[pp.target as usize] +=
+                self.path_w[pp.row as usize] * v.jac[pp.a as usize] * v.jac[pp.b as usize];
+        }
+        if k < self.stages {
+            let o = self.e_base + k * NX * NX;
+            let e = &arena[o..o + NX * NX];
+            let inv = &mut self.inverses[k];
+            if same_bits(inv.e_in.as_slice(), e) {
+                inv.ok = true;
+            } else {
+                let e = SMatrix::<f64, NX, NX>::from_column_slice(e);
+                if let Some(f) = invert_unit_tail(&e) {
+                    inv.f = f;
+                    inv.e_in = e;
+                    inv.ok = true;
+                } else {
+                    inv.ok = false;
+                }
+            }
+        }
     }
 
     /// W_k, its upper triangle filled from the lower one.
@@ -587,14 +730,14 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         fac: &mut StageFactor<NX, NU, NZ>,
         p: &SMatrix<f64, NX, NX>,
         e: &SMatrix<f64, NX, NX>,
+        f: &SMatrix<f64, NX, NX>,
         delta: &SVector<f64, NX>,
         q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
     ) -> Result<(), KktError> {
-        let f = cached_inverse(fac, e)?;
         let mut phat = mul_tn(&f, &mul_nn(p, &f));
         symmetrize(&mut phat);
-        fac.f = f;
+        fac.f = *f;
         // C^ = Y F (Y is zero outside the few rows of z_k that couple to x_{k+1}).
         fac.chat = mul_nn(&fac.y, &f);
         let j = fac.j;
@@ -747,6 +890,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     #[inline(always)]
     fn factorize_blocks(
         &mut self,
+        v: &KktValues<'_>,
         negative_path: usize,
         stop_on_excess: bool,
     ) -> Result<Inertia, KktError> {
@@ -756,6 +900,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             negative: negative_path,
             zero: 0,
         };
+        self.assemble_unit(big, v);
         let mut p: SMatrix<f64, NX, NX> = self.w_block(big).fixed_view::<NX, NX>(0, 0).into_owned();
         // Y^T: the coupling of z_k to x_{k+1}, stored transposed (NX x NZ, contiguous rows
         // of the X block).
@@ -766,6 +911,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
         let y_live = self.y_live;
         for k in (0..big).rev() {
+            self.assemble_unit(k, v);
+            let inv = &self.inverses[k];
+            if !inv.ok {
+                return Err(KktError::Unsupported);
+            }
+            let f = &inv.f;
             let mut q = self.w_block(k);
             q -= pending;
             let e = self.e_block(k);
@@ -786,7 +937,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                     &mut p,
                     &mut yt,
                     &mut pending,
-                    &e,
+                    f,
                     &mut q,
                     prev.as_ref(),
                     &y_live,
@@ -796,7 +947,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 continue;
             }
             fac.y = yt.transpose();
-            Self::eliminate_pair(fac, &p, &e, &self.delta[k], &mut q, &mut inertia)?;
+            Self::eliminate_pair(fac, &p, &e, f, &self.delta[k], &mut q, &mut inertia)?;
             // u_k.
             let quu: SMatrix<f64, NU, NU> = q.fixed_view::<NU, NU>(NX, NX).into_owned();
             let (l, d, neg) = ldlt_factor(&quu)?;
@@ -943,8 +1094,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         if !(finite(v.hess) && finite(v.jac) && finite(v.primal_diag) && finite(v.dual_diag)) {
             return Err(KktError::NonFinite);
         }
-        let negative_path = self.assemble(v)?;
-        let inertia = self.factorize_blocks(negative_path, stop_on_excess)?;
+        let negative_path = self.prepare(v)?;
+        let inertia = self.factorize_blocks(v, negative_path, stop_on_excess)?;
         self.factorized = true;
         Ok(inertia)
     }
@@ -1160,13 +1311,12 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     p: &mut SMatrix<f64, NX, NX>,
     yt: &mut SMatrix<f64, NX, NZ>,
     pending: &mut SMatrix<f64, NZ, NZ>,
-    e: &SMatrix<f64, NX, NX>,
+    f: &SMatrix<f64, NX, NX>,
     q: &mut SMatrix<f64, NZ, NZ>,
     prev: Option<&SMatrix<f64, NZ, NZ>>,
     y_live: &[bool; NZ],
     inertia: &mut Inertia,
 ) -> Result<(), KktError> {
-    let f = cached_inverse(fac, e)?;
     let fc = &f.data.0;
     let ft: [[f64; NX]; NX] = std::array::from_fn(|c| std::array::from_fn(|r| fc[r][c]));
     // P^ = F^T (P F): its pair has inertia (NX, NX).
@@ -1244,7 +1394,7 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     mm_acc(&mut pn, &qxu, &gm, -1.0);
     sym_lower(&mut pn);
     p.data.0 = pn;
-    fac.f = f;
+    fac.f = *f;
     fac.zero_delta = true;
     fac.lambda_first = false;
     fac.a22.data.0 = phat.map(|col| col.map(|v| -v));
@@ -1441,24 +1591,6 @@ fn mm_acc<const R: usize, const K: usize, const C: usize>(
         }
         *oc = acc;
     }
-}
-
-/// F = E^-1 for stage factor `fac`: the stored inverse when E has the same bits as the
-/// one it was computed from (an inertia-correcting refactorization), else a new one.
-#[inline(always)]
-fn cached_inverse<const NX: usize, const NU: usize, const NZ: usize>(
-    fac: &mut StageFactor<NX, NU, NZ>,
-    e: &SMatrix<f64, NX, NX>,
-) -> Result<SMatrix<f64, NX, NX>, KktError> {
-    if same_bits(fac.e_in.as_slice(), e.as_slice()) {
-        return Ok(fac.f);
-    }
-    let f = invert_unit_tail(e).ok_or(KktError::Unsupported)?;
-    // Stored together here, not later in the stage: a stage that fails after this point
-    // (a zero pivot) must not leave an E paired with another E's inverse.
-    fac.f = f;
-    fac.e_in = *e;
-    Ok(f)
 }
 
 /// Whether two slices of equal length hold the same bits (NaN never matches a number).

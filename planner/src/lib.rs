@@ -20,3 +20,4 @@ pub mod record;
 pub mod study;
 pub mod track;
 pub mod trajectory;
+pub mod worker;

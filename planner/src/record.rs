@@ -218,6 +218,8 @@ fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, Stri
         delta_w_decrease: v[32],
         max_refactorizations: int_field(v, 33, 1_000_000)?,
         kkt,
+        // Not recorded: any thread count gives the same bits.
+        threads: 1,
     })
 }
 

@@ -687,3 +687,70 @@ fn wrong_inertia_stops_the_sweep_early() {
     let bits: Vec<u64> = x.into_iter().chain(y).map(f64::to_bits).collect();
     assert_eq!(bits, step_bits(&mut riccati_for(&structure, &a), &a, &rhs));
 }
+
+/// The pipelined factorization (a helper thread writes the stage blocks while the sweep
+/// runs) gives the same results and bits as one thread over a sequence that exercises
+/// every way a sweep ends: complete, stopped early at a wrong inertia (the helper is
+/// cancelled mid-way), failed at a singular E_k (the error comes from the helper's unit),
+/// and complete again after each.
+#[test]
+fn pipelined_factorization_equals_one_thread() {
+    use planner::ip::kkt::RowRole;
+    let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
+    let structure = nlp.stage_structure().unwrap();
+    let (mut a, b, mut rng) = two_points(&mut nlp, 11);
+    a.dx.iter_mut().for_each(|d| *d += 1e3);
+    let correct = Inertia {
+        positive: a.n,
+        negative: a.m,
+        zero: 0,
+    };
+    let layout = Layout::new(100, 0);
+    let mut bad = a.clone();
+    for j in 0..3 {
+        bad.dx[layout.u(20, j)] = -1e9;
+    }
+    let mut singular = b.clone();
+    for (q, (&r, &c)) in singular.jr.iter().zip(&singular.jc).enumerate() {
+        if let RowRole::Dynamics { stage: 30, .. } = structure.rows[r] {
+            if c / 12 == 31 {
+                singular.jac[q] = 0.0;
+            }
+        }
+    }
+    let rhs = random_rhs(&a, &mut rng);
+    let run = |kkt: &mut VehicleRiccati| {
+        let mut out = Vec::new();
+        let step = |kkt: &mut VehicleRiccati| {
+            let (mut x, mut y) = rhs.clone();
+            kkt.solve(&mut x, &mut y);
+            x.into_iter()
+                .chain(y)
+                .map(f64::to_bits)
+                .collect::<Vec<u64>>()
+        };
+        for s in [&a, &b, &a] {
+            out.push(format!(
+                "{:?}",
+                kkt.factorize_expecting(&s.values(), correct)
+            ));
+            out.push(format!("{:?}", step(kkt)));
+            out.push(format!(
+                "{:?}",
+                kkt.factorize_expecting(&bad.values(), correct)
+            ));
+            out.push(format!("{:?}", kkt.factorize(&bad.values())));
+            out.push(format!("{:?}", step(kkt)));
+            out.push(format!("{:?}", kkt.factorize(&singular.values())));
+        }
+        out
+    };
+    let mut one = riccati_for(&structure, &a);
+    let mut two = riccati_for(&structure, &a);
+    two.set_pipelined(true).unwrap();
+    assert!(two.pipelined() && !one.pipelined());
+    let (r1, r2) = (run(&mut one), run(&mut two));
+    assert!(r1.iter().any(|r| r.contains("WrongInertia")));
+    assert!(r1.iter().any(|r| r.contains("Unsupported")));
+    assert_eq!(r1, r2);
+}

@@ -248,6 +248,10 @@ struct SolveArgs {
     /// KKT backend (overrides the solver file).
     #[arg(long, value_enum)]
     kkt: Option<KktArg>,
+    /// Threads of a solve: 1, or 2 to pipeline the Riccati factorization over a helper
+    /// thread (overrides the solver file; same results).
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=2))]
+    threads: Option<u8>,
     /// Solve K times and report the median solve_ms.
     #[arg(long, default_value_t = 1)]
     repeat: usize,
@@ -349,6 +353,9 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     }
     if let Some(b) = args.barrier {
         settings.barrier = b.rule();
+    }
+    if let Some(t) = args.threads {
+        settings.threads = usize::from(t);
     }
     let guess = match args.guess {
         GuessArg::Equilibrium => GuessKind::Equilibrium,
@@ -508,6 +515,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "integrator": "implicit_euler",
             "barrier": settings.barrier.name(),
             "kkt": planner.solver().kkt().name(),
+            "threads": settings.threads,
             "tire_saturation": saturation,
             "dual_inf": info.dual_inf,
             "compl": info.compl,

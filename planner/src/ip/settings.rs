@@ -159,6 +159,11 @@ pub struct Settings {
     /// KKT backend: `auto` (Riccati where the stage structure allows, else sparse),
     /// `sparse` or `riccati`.
     pub kkt: KktBackendKind,
+    /// Threads of a solve: 1, or 2 to pipeline the Riccati factorization over a helper
+    /// thread that writes the stage blocks while the sweep runs (same bits as 1; pays off
+    /// only when the helper has a core of its own). Fixed at setup; not recorded, since it
+    /// does not change results.
+    pub threads: usize,
 }
 
 impl Default for Settings {
@@ -199,6 +204,7 @@ impl Default for Settings {
             delta_c_min: 1e-10,
             infeas_stat_tol: 1e-6,
             kkt: KktBackendKind::Auto,
+            threads: 1,
         }
     }
 }
@@ -303,6 +309,13 @@ impl Settings {
                     expected: "must be an integer in 1..=1000000",
                 });
             }
+        }
+        if !(1..=2).contains(&self.threads) {
+            return Err(SettingsError {
+                field: "threads",
+                value: self.threads.to_string(),
+                expected: "must be 1 or 2",
+            });
         }
         if self.max_refactorizations < 2 {
             return Err(SettingsError {

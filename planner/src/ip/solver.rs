@@ -52,7 +52,7 @@ impl Solver<KktBackend> {
         settings.validate()?;
         let ws = Workspace::new(nlp, settings.max_iter + 2);
         let structure = nlp.stage_structure();
-        let kkt = KktBackend::new(
+        let kkt = KktBackend::with_threads(
             settings.kkt,
             Pattern {
                 n: ws.n,
@@ -63,6 +63,7 @@ impl Solver<KktBackend> {
                 jac_cols: &ws.jac_cols,
             },
             structure.as_ref(),
+            settings.threads,
         )?;
         Ok(Self::with_backend(settings, ws, kkt))
     }
@@ -100,6 +101,13 @@ impl<K: KktSolver> Solver<K> {
         settings: Settings,
     ) -> Result<(), super::settings::SettingsError> {
         settings.validate()?;
+        if settings.threads != self.settings.threads {
+            return Err(super::settings::SettingsError {
+                field: "threads",
+                value: settings.threads.to_string(),
+                expected: "cannot change after setup",
+            });
+        }
         if settings.max_iter + 2 > self.ws.log.capacity() {
             return Err(super::settings::SettingsError {
                 field: "max_iter",

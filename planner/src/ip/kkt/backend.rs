@@ -57,6 +57,9 @@ pub enum BackendError {
     /// `riccati` was requested but the NLP publishes no stage structure.
     #[error("riccati KKT backend: the problem has no stage structure")]
     NoStructure,
+    /// The helper thread of the pipelined factorization could not be started.
+    #[error("riccati KKT backend: cannot start the helper thread: {0}")]
+    Worker(#[from] std::io::Error),
 }
 
 /// A KKT backend chosen at setup.
@@ -88,11 +91,23 @@ pub struct Pattern<'a> {
 }
 
 impl KktBackend {
-    /// Builds the backend `kind` for this pattern and (optional) stage structure.
+    /// Builds the backend `kind` for this pattern and (optional) stage structure, with one
+    /// thread.
     pub fn new(
         kind: KktBackendKind,
         pat: Pattern<'_>,
         structure: Option<&StageStructure>,
+    ) -> Result<Self, BackendError> {
+        Self::with_threads(kind, pat, structure, 1)
+    }
+
+    /// As [`Self::new`]; with `threads` = 2 the Riccati backend pipelines its factorization
+    /// over a helper thread (same bits; the sparse backend always runs on one).
+    pub fn with_threads(
+        kind: KktBackendKind,
+        pat: Pattern<'_>,
+        structure: Option<&StageStructure>,
+        threads: usize,
     ) -> Result<Self, BackendError> {
         let sparse = || {
             SparseLdlt::new(
@@ -126,6 +141,10 @@ impl KktBackend {
                 _ => (None, Some(sparse()?)),
             },
         };
+        let mut riccati = riccati;
+        if let Some(r) = riccati.as_mut() {
+            r.set_pipelined(threads > 1)?;
+        }
         Ok(Self {
             riccati,
             sparse,

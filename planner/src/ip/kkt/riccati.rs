@@ -29,11 +29,13 @@
 
 use super::structure::{RowRole, StageStructure};
 use super::{Inertia, KktError, KktSolver, KktValues};
+use crate::worker::{wait_until, Worker};
 use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::lblt;
 use faer::{Conj, Mat, Par};
 use nalgebra::{SMatrix, SVector};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// No target in the block arena.
 const NONE: u32 = u32::MAX;
@@ -225,6 +227,8 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     u_diag: Vec<(u32, u32)>,
     u_pairs: Vec<UnitPair>,
     inverses: Vec<StageInverse<NX>>,
+    /// The helper thread of the pipelined factorization (`threads = 2`), if any.
+    worker: Option<Worker>,
     /// All assembled blocks, column-major: W_k (k = 0..=N; W_N uses the NX x NX corner),
     /// X_k (rows z_{k+1}, columns z_k), E_k (index N: initial rows), J_k.
     arena: Vec<f64>,
@@ -590,6 +594,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             u_diag,
             u_pairs,
             inverses: vec![StageInverse::default(); big],
+            worker: None,
             arena: vec![0.0; arena_len],
             x_base,
             e_base,
@@ -635,92 +640,10 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         Ok(self.path_rows.len())
     }
 
-    /// Writes unit `k` of the arena (see [`Unit`]): zeroes, Jacobian and Hessian values,
-    /// the primal diagonal, then W += J_r^T J_r / |D_c| over the path rows (X for pairs
-    /// across two stages); for a stage unit also E_k^-1 (reused while E_k keeps its bits).
-    #[inline(always)]
-    fn assemble_unit(&mut self, k: usize, v: &KktValues<'_>) {
-        let u = self.units[k];
-        let arena = &mut self.arena;
-        let span = |r: (u32, u32)| r.0 as usize..r.1 as usize;
-        for &(t, len) in &self.u_zero[span(u.zero)] {
-            if len == 1 {
-                arena[t as usize] = 0.0;
-            } else {
-                arena[t as usize..(t + len) as usize].fill(0.0);
-            }
-        }
-        for &(q, t) in &self.u_jac[span(u.jac)] {
-            let jv = v.jac[q as usize];
-            if self.jac_assign {
-                arena[t as usize] = jv;
-            } else {
-                arena[t as usize] += jv;
-            }
-        }
-        for &(q, t) in &self.u_hess[span(u.hess)] {
-            let h = v.hess[q as usize];
-            if self.hess_assign {
-                // 0 + h, not h: the bits of the summed version, signed zeros too.
-                arena[t as usize] = 0.0 + h;
-            } else {
-                arena[t as usize] += h;
-            }
-        }
-        for &(i, t) in &self.u_diag[span(u.diag)] {
-            arena[t as usize] += v.primal_diag[i as usize];
-        }
-        for pp in &self.u_pairs[span(u.pairs)] {
-            arena[pp.target as usize] +=
-                self.path_w[pp.row as usize] * v.jac[pp.a as usize] * v.jac[pp.b as usize];
-        }
-        if k < self.stages {
-            let o = self.e_base + k * NX * NX;
-            let e = &arena[o..o + NX * NX];
-            let inv = &mut self.inverses[k];
-            if same_bits(inv.e_in.as_slice(), e) {
-                inv.ok = true;
-            } else {
-                let e = SMatrix::<f64, NX, NX>::from_column_slice(e);
-                if let Some(f) = invert_unit_tail(&e) {
-                    inv.f = f;
-                    inv.e_in = e;
-                    inv.ok = true;
-                } else {
-                    inv.ok = false;
-                }
-            }
-        }
-    }
-
-    /// W_k, its upper triangle filled from the lower one.
-    #[inline(always)]
-    fn w_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
-        let mut w = SMatrix::from_column_slice(&self.arena[k * NZ * NZ..(k + 1) * NZ * NZ]);
-        for c in 0..NZ {
-            for r in c + 1..NZ {
-                w[(c, r)] = w[(r, c)];
-            }
-        }
-        w
-    }
-
-    #[inline(always)]
-    fn x_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
-        let o = self.x_base + k * NZ * NZ;
-        SMatrix::from_column_slice(&self.arena[o..o + NZ * NZ])
-    }
-
     #[inline(always)]
     fn e_block(&self, k: usize) -> SMatrix<f64, NX, NX> {
         let o = self.e_base + k * NX * NX;
         SMatrix::from_column_slice(&self.arena[o..o + NX * NX])
-    }
-
-    #[inline(always)]
-    fn j_block(&self, k: usize) -> SMatrix<f64, NX, NZ> {
-        let o = self.j_base + k * NX * NZ;
-        SMatrix::from_column_slice(&self.arena[o..o + NX * NZ])
     }
 
     /// Eliminates the pair (x_{k+1}, lambda_k) (factor `fac` holds J, Y on entry) and
@@ -735,11 +658,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
     ) -> Result<(), KktError> {
-        let mut phat = mul_tn(&f, &mul_nn(p, &f));
+        let mut phat = mul_tn(f, &mul_nn(p, f));
         symmetrize(&mut phat);
         fac.f = *f;
         // C^ = Y F (Y is zero outside the few rows of z_k that couple to x_{k+1}).
-        fac.chat = mul_nn(&fac.y, &f);
+        fac.chat = mul_nn(&fac.y, f);
         let j = fac.j;
         fac.zero_delta = delta.iter().all(|&d| d == 0.0);
         fac.lambda_first = false;
@@ -887,6 +810,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
     }
 
+    /// Steps 1 and 2: the units and the backward sweep. With a helper thread the helper
+    /// writes the units in sweep order while this thread sweeps, each stage waiting for
+    /// its unit; without one each unit is written just before its stage. Same bits.
     #[inline(always)]
     fn factorize_blocks(
         &mut self,
@@ -895,85 +821,61 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         stop_on_excess: bool,
     ) -> Result<Inertia, KktError> {
         let big = self.stages;
-        let mut inertia = Inertia {
-            positive: 0,
-            negative: negative_path,
-            zero: 0,
+        let asm = Assembly::<NX, NZ> {
+            units: &self.units,
+            zero: &self.u_zero,
+            jac: &self.u_jac,
+            hess: &self.u_hess,
+            diag: &self.u_diag,
+            pairs: &self.u_pairs,
+            path_w: &self.path_w,
+            jac_assign: self.jac_assign,
+            hess_assign: self.hess_assign,
+            stages: big,
+            x_base: self.x_base,
+            e_base: self.e_base,
+            j_base: self.j_base,
+            arena: self.arena.as_mut_ptr(),
+            inverses: self.inverses.as_mut_ptr(),
         };
-        self.assemble_unit(big, v);
-        let mut p: SMatrix<f64, NX, NX> = self.w_block(big).fixed_view::<NX, NX>(0, 0).into_owned();
-        // Y^T: the coupling of z_k to x_{k+1}, stored transposed (NX x NZ, contiguous rows
-        // of the X block).
-        let mut yt: SMatrix<f64, NX, NZ> = self
-            .x_block(big - 1)
-            .fixed_view::<NX, NZ>(0, 0)
-            .into_owned();
-        let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
-        let y_live = self.y_live;
-        for k in (0..big).rev() {
-            self.assemble_unit(k, v);
-            let inv = &self.inverses[k];
-            if !inv.ok {
-                return Err(KktError::Unsupported);
+        let sweep = Sweep {
+            factors: &mut self.factors,
+            delta: &self.delta,
+            y_live: self.y_live,
+            negative_path,
+            stop_on_excess,
+        };
+        let (p, mut inertia) = match self.worker.as_mut() {
+            None => sweep.run(&asm, |k| {
+                // SAFETY: one thread; every unit is written once, before its stage reads it.
+                unsafe { asm.unit(k, v) }
+            })?,
+            Some(worker) => {
+                // Units done, in sweep order (N, N-1, .., 0); the sweep stops the helper
+                // when it stops early.
+                let done = AtomicUsize::new(0);
+                let cancel = AtomicBool::new(false);
+                let job = || {
+                    for (i, k) in (0..=big).rev().enumerate() {
+                        if cancel.load(Ordering::Relaxed) {
+                            break;
+                        }
+                        // SAFETY: the helper writes unit k while the sweep reads only units
+                        // published before it (release/acquire on `done`).
+                        unsafe { asm.unit(k, v) };
+                        done.store(i + 1, Ordering::Release);
+                    }
+                };
+                worker.join(&job, || {
+                    let out = sweep.run(&asm, |k| {
+                        let need = big - k + 1;
+                        wait_until(|| done.load(Ordering::Acquire) >= need);
+                    });
+                    cancel.store(true, Ordering::Relaxed);
+                    out
+                })?
             }
-            let f = &inv.f;
-            let mut q = self.w_block(k);
-            q -= pending;
-            let e = self.e_block(k);
-            let j = self.j_block(k);
-            let prev = if k > 0 {
-                Some(self.x_block(k - 1))
-            } else {
-                None
-            };
-            let fac = &mut self.factors[k];
-            fac.j = j;
-            fac.j_minus_identity = minus_identity_head(&j);
-            let zero_delta = all_zero(self.delta[k].as_slice());
-            let fast = zero_delta && fac.j_minus_identity;
-            if fast {
-                fast_stage(
-                    fac,
-                    &mut p,
-                    &mut yt,
-                    &mut pending,
-                    f,
-                    &mut q,
-                    prev.as_ref(),
-                    &y_live,
-                    &mut inertia,
-                )?;
-                check_excess::<NX>(stop_on_excess, &inertia, negative_path, big - k)?;
-                continue;
-            }
-            fac.y = yt.transpose();
-            Self::eliminate_pair(fac, &p, &e, f, &self.delta[k], &mut q, &mut inertia)?;
-            // u_k.
-            let quu: SMatrix<f64, NU, NU> = q.fixed_view::<NU, NU>(NX, NX).into_owned();
-            let (l, d, neg) = ldlt_factor(&quu)?;
-            inertia.positive += NU - neg;
-            inertia.negative += neg;
-            fac.quu_l = l;
-            fac.quu_d = d;
-            fac.q_ux = q.fixed_view::<NU, NX>(NX, 0).into_owned();
-            // g = Q_uu^-1 Q_ux.
-            let mut g = fac.q_ux;
-            ldlt_solve_cols(&l, &d, &mut g);
-            p = q.fixed_view::<NX, NX>(0, 0) - fac.q_ux.tr_mul(&g);
-            symmetrize(&mut p);
-            if let Some(xc) = prev {
-                // Y = X_{k-1}[x rows]^T - R g and W_{k-1} -= R Q_uu^-1 R^T.
-                fac.r = xc.fixed_view::<NU, NZ>(NX, 0).transpose();
-                yt = xc.fixed_view::<NX, NZ>(0, 0) - g.tr_mul(&fac.r.transpose());
-                let mut rt = fac.r.transpose();
-                ldlt_solve_cols(&l, &d, &mut rt);
-                pending = fac.r * rt;
-                symmetrize(&mut pending);
-            } else {
-                fac.r = SMatrix::zeros();
-            }
-            check_excess::<NX>(stop_on_excess, &inertia, negative_path, big - k)?;
-        }
+        };
         self.factorize_initial(&p, &mut inertia)?;
         Ok(inertia)
     }
@@ -1069,6 +971,23 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     /// Whether factorizations and solves run in the AVX2-compiled copy.
     pub fn simd(&self) -> bool {
         self.simd
+    }
+
+    /// Pipelines the factorization over a second thread when `on`: a helper writes the
+    /// stage blocks (and E_k^-1) in sweep order while this thread sweeps. Same bits as one
+    /// thread. Starts the helper (allocates; call at setup) or stops it.
+    pub fn set_pipelined(&mut self, on: bool) -> std::io::Result<()> {
+        match (on, self.worker.is_some()) {
+            (true, false) => self.worker = Some(Worker::start()?),
+            (false, true) => self.worker = None,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Whether a helper thread pipelines the factorization.
+    pub fn pipelined(&self) -> bool {
+        self.worker.is_some()
     }
 
     /// The factorization, inlined into both the baseline and the AVX2 entry point.
@@ -1262,6 +1181,255 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
 
     fn wants_dual_regularization(&self) -> bool {
         false
+    }
+}
+
+/// What writes the units: the op lists, read-only, and raw pointers to the arena and the
+/// stage inverses, which the helper thread writes unit by unit while the sweep reads the
+/// units already published (disjoint memory, ordered by `done`). Never a reference to the
+/// whole arena while both threads run.
+struct Assembly<'a, const NX: usize, const NZ: usize> {
+    units: &'a [Unit],
+    zero: &'a [(u32, u32)],
+    jac: &'a [(u32, u32)],
+    hess: &'a [(u32, u32)],
+    diag: &'a [(u32, u32)],
+    pairs: &'a [UnitPair],
+    path_w: &'a [f64],
+    jac_assign: bool,
+    hess_assign: bool,
+    stages: usize,
+    x_base: usize,
+    e_base: usize,
+    j_base: usize,
+    arena: *mut f64,
+    inverses: *mut StageInverse<NX>,
+}
+
+// SAFETY: shared between the sweep and the helper only under the protocol described on the
+// type (each unit's memory is written by one thread before the other reads it).
+unsafe impl<const NX: usize, const NZ: usize> Sync for Assembly<'_, NX, NZ> {}
+
+impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
+    /// Writes unit `k` (see [`Unit`]): zeroes, Jacobian and Hessian values, the primal
+    /// diagonal, then W += J_r^T J_r / |D_c| over the path rows (X for pairs across two
+    /// stages); for a stage unit also E_k^-1 (reused while E_k keeps its bits).
+    ///
+    /// # Safety
+    /// No other thread accesses unit `k`'s arena entries or inverse meanwhile.
+    #[inline(always)]
+    unsafe fn unit(&self, k: usize, v: &KktValues<'_>) {
+        let u = self.units[k];
+        let a = self.arena;
+        let span = |r: (u32, u32)| r.0 as usize..r.1 as usize;
+        for &(t, len) in &self.zero[span(u.zero)] {
+            if len == 1 {
+                *a.add(t as usize) = 0.0;
+            } else {
+                // All-zero bits are +0.0.
+                std::ptr::write_bytes(a.add(t as usize), 0, len as usize);
+            }
+        }
+        for &(q, t) in &self.jac[span(u.jac)] {
+            let jv = v.jac[q as usize];
+            if self.jac_assign {
+                *a.add(t as usize) = jv;
+            } else {
+                *a.add(t as usize) += jv;
+            }
+        }
+        for &(q, t) in &self.hess[span(u.hess)] {
+            let h = v.hess[q as usize];
+            if self.hess_assign {
+                // 0 + h, not h: the bits of the summed version, signed zeros too.
+                *a.add(t as usize) = 0.0 + h;
+            } else {
+                *a.add(t as usize) += h;
+            }
+        }
+        for &(i, t) in &self.diag[span(u.diag)] {
+            *a.add(t as usize) += v.primal_diag[i as usize];
+        }
+        for pp in &self.pairs[span(u.pairs)] {
+            *a.add(pp.target as usize) +=
+                self.path_w[pp.row as usize] * v.jac[pp.a as usize] * v.jac[pp.b as usize];
+        }
+        if k < self.stages {
+            let e = std::slice::from_raw_parts(a.add(self.e_base + k * NX * NX), NX * NX);
+            let inv = &mut *self.inverses.add(k);
+            if same_bits(inv.e_in.as_slice(), e) {
+                inv.ok = true;
+            } else {
+                let e = SMatrix::<f64, NX, NX>::from_column_slice(e);
+                if let Some(f) = invert_unit_tail(&e) {
+                    inv.f = f;
+                    inv.e_in = e;
+                    inv.ok = true;
+                } else {
+                    inv.ok = false;
+                }
+            }
+        }
+    }
+
+    /// `len` arena entries from `o`.
+    ///
+    /// # Safety
+    /// Their unit is written and no thread writes it meanwhile.
+    #[inline(always)]
+    unsafe fn slice(&self, o: usize, len: usize) -> &[f64] {
+        std::slice::from_raw_parts(self.arena.add(o), len)
+    }
+
+    /// W_k, its upper triangle filled from the lower one. Safety: as [`Self::slice`].
+    #[inline(always)]
+    unsafe fn w_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
+        let mut w = SMatrix::from_column_slice(self.slice(k * NZ * NZ, NZ * NZ));
+        for c in 0..NZ {
+            for r in c + 1..NZ {
+                w[(c, r)] = w[(r, c)];
+            }
+        }
+        w
+    }
+
+    /// X_k. Safety: as [`Self::slice`].
+    #[inline(always)]
+    unsafe fn x_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
+        SMatrix::from_column_slice(self.slice(self.x_base + k * NZ * NZ, NZ * NZ))
+    }
+
+    /// E_k. Safety: as [`Self::slice`].
+    #[inline(always)]
+    unsafe fn e_block(&self, k: usize) -> SMatrix<f64, NX, NX> {
+        SMatrix::from_column_slice(self.slice(self.e_base + k * NX * NX, NX * NX))
+    }
+
+    /// J_k. Safety: as [`Self::slice`].
+    #[inline(always)]
+    unsafe fn j_block(&self, k: usize) -> SMatrix<f64, NX, NZ> {
+        SMatrix::from_column_slice(self.slice(self.j_base + k * NX * NZ, NX * NZ))
+    }
+
+    /// E_k^-1, or `Unsupported` when E_k is singular. Safety: as [`Self::slice`].
+    #[inline(always)]
+    unsafe fn inverse(&self, k: usize) -> Result<&SMatrix<f64, NX, NX>, KktError> {
+        let inv = &*self.inverses.add(k);
+        if inv.ok {
+            Ok(&inv.f)
+        } else {
+            Err(KktError::Unsupported)
+        }
+    }
+}
+
+/// The backward sweep's own state (step 2).
+struct Sweep<'a, const NX: usize, const NU: usize, const NZ: usize> {
+    factors: &'a mut [StageFactor<NX, NU, NZ>],
+    delta: &'a [SVector<f64, NX>],
+    y_live: [bool; NZ],
+    negative_path: usize,
+    stop_on_excess: bool,
+}
+
+impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
+    /// Sweeps k = N-1 .. 0, calling `ready(k)` before it reads unit k (and `ready(N)`
+    /// first); returns P_0 and the inertia so far.
+    #[inline(always)]
+    fn run(
+        self,
+        asm: &Assembly<'_, NX, NZ>,
+        mut ready: impl FnMut(usize),
+    ) -> Result<(SMatrix<f64, NX, NX>, Inertia), KktError> {
+        let big = asm.stages;
+        let (negative_path, stop_on_excess, y_live) =
+            (self.negative_path, self.stop_on_excess, self.y_live);
+        let mut inertia = Inertia {
+            positive: 0,
+            negative: negative_path,
+            zero: 0,
+        };
+        ready(big);
+        // SAFETY (every block read below): `ready(k)` returned, so unit k is written and
+        // no thread writes it any more in this factorization.
+        let mut p: SMatrix<f64, NX, NX> = unsafe { asm.w_block(big) }
+            .fixed_view::<NX, NX>(0, 0)
+            .into_owned();
+        // Y^T: the coupling of z_k to x_{k+1}, stored transposed (NX x NZ, contiguous rows
+        // of the X block).
+        let mut yt: SMatrix<f64, NX, NZ> = unsafe { asm.x_block(big - 1) }
+            .fixed_view::<NX, NZ>(0, 0)
+            .into_owned();
+        let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
+        for k in (0..big).rev() {
+            ready(k);
+            let f = unsafe { asm.inverse(k) }?;
+            let mut q = unsafe { asm.w_block(k) };
+            q -= pending;
+            let e = unsafe { asm.e_block(k) };
+            let j = unsafe { asm.j_block(k) };
+            let prev = if k > 0 {
+                Some(unsafe { asm.x_block(k - 1) })
+            } else {
+                None
+            };
+            let fac = &mut self.factors[k];
+            fac.j = j;
+            fac.j_minus_identity = minus_identity_head(&j);
+            let zero_delta = all_zero(self.delta[k].as_slice());
+            let fast = zero_delta && fac.j_minus_identity;
+            if fast {
+                fast_stage(
+                    fac,
+                    &mut p,
+                    &mut yt,
+                    &mut pending,
+                    f,
+                    &mut q,
+                    prev.as_ref(),
+                    &y_live,
+                    &mut inertia,
+                )?;
+                check_excess::<NX>(stop_on_excess, &inertia, negative_path, big - k)?;
+                continue;
+            }
+            fac.y = yt.transpose();
+            RiccatiKkt::<NX, NU, NZ>::eliminate_pair(
+                fac,
+                &p,
+                &e,
+                f,
+                &self.delta[k],
+                &mut q,
+                &mut inertia,
+            )?;
+            // u_k.
+            let quu: SMatrix<f64, NU, NU> = q.fixed_view::<NU, NU>(NX, NX).into_owned();
+            let (l, d, neg) = ldlt_factor(&quu)?;
+            inertia.positive += NU - neg;
+            inertia.negative += neg;
+            fac.quu_l = l;
+            fac.quu_d = d;
+            fac.q_ux = q.fixed_view::<NU, NX>(NX, 0).into_owned();
+            // g = Q_uu^-1 Q_ux.
+            let mut g = fac.q_ux;
+            ldlt_solve_cols(&l, &d, &mut g);
+            p = q.fixed_view::<NX, NX>(0, 0) - fac.q_ux.tr_mul(&g);
+            symmetrize(&mut p);
+            if let Some(xc) = prev {
+                // Y = X_{k-1}[x rows]^T - R g and W_{k-1} -= R Q_uu^-1 R^T.
+                fac.r = xc.fixed_view::<NU, NZ>(NX, 0).transpose();
+                yt = xc.fixed_view::<NX, NZ>(0, 0) - g.tr_mul(&fac.r.transpose());
+                let mut rt = fac.r.transpose();
+                ldlt_solve_cols(&l, &d, &mut rt);
+                pending = fac.r * rt;
+                symmetrize(&mut pending);
+            } else {
+                fac.r = SMatrix::zeros();
+            }
+            check_excess::<NX>(stop_on_excess, &inertia, negative_path, big - k)?;
+        }
+        Ok((p, inertia))
     }
 }
 

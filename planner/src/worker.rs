@@ -1,0 +1,230 @@
+//! A persistent helper thread that runs one borrowed job beside the caller (a fork-join of
+//! two), allocation-free once started: the hot path never spawns a thread or boxes a job.
+//! The pipelined Riccati factorization uses it (`threads = 2` in `config/solver.toml`).
+//!
+//! Between jobs the helper spins for [`SPIN`] and then parks, so a solve (a job every few
+//! hundred microseconds) keeps it awake and an idle planner leaves the core alone.
+
+use std::cell::UnsafeCell;
+use std::hint::spin_loop;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::Arc;
+use std::thread::{self, JoinHandle, Thread};
+use std::time::{Duration, Instant};
+
+/// How long the idle helper polls for the next job before it parks (waking a parked thread
+/// costs tens of microseconds on a VM).
+pub const SPIN: Duration = Duration::from_micros(500);
+
+const IDLE: u32 = 0;
+const READY: u32 = 1;
+const DONE: u32 = 2;
+const EXIT: u32 = 3;
+
+/// A job whose lifetime was erased by [`Worker::join`], which does not return before the
+/// helper has finished with it.
+type JobPtr = *const (dyn Fn() + Sync);
+
+struct Shared {
+    state: AtomicU32,
+    job: UnsafeCell<Option<JobPtr>>,
+    panicked: AtomicBool,
+}
+
+// SAFETY: `job` is written by the caller only while the state is IDLE and read by the helper
+// only after it observed READY (release/acquire on `state`); the job itself is `Sync`.
+unsafe impl Sync for Shared {}
+// SAFETY: as above; the pointer is only dereferenced under that protocol.
+unsafe impl Send for Shared {}
+
+/// The helper thread and its job slot.
+pub struct Worker {
+    shared: Arc<Shared>,
+    thread: Thread,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for Worker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Worker")
+            .field("thread", &self.thread.name())
+            .finish()
+    }
+}
+
+impl Worker {
+    /// Starts the helper thread (allocates; call at setup).
+    pub fn start() -> std::io::Result<Self> {
+        let shared = Arc::new(Shared {
+            state: AtomicU32::new(IDLE),
+            job: UnsafeCell::new(None),
+            panicked: AtomicBool::new(false),
+        });
+        let theirs = Arc::clone(&shared);
+        let handle = thread::Builder::new()
+            .name("planner-helper".into())
+            .spawn(move || helper_loop(&theirs))?;
+        let thread = handle.thread().clone();
+        Ok(Self {
+            shared,
+            thread,
+            handle: Some(handle),
+        })
+    }
+
+    /// Runs `job` on the helper thread and `main` on this one, and returns `main`'s result
+    /// once both are done (also when `main` panics: the helper is waited for first). A panic
+    /// in `job` is raised here after both finished.
+    pub fn join<R>(&mut self, job: &(dyn Fn() + Sync), main: impl FnOnce() -> R) -> R {
+        // SAFETY: only the lifetime is erased; `Wait` below does not let this function
+        // return or unwind before the helper reports DONE, after which it never touches
+        // the job again.
+        let ptr: JobPtr =
+            unsafe { std::mem::transmute::<&(dyn Fn() + Sync), &'static (dyn Fn() + Sync)>(job) };
+        // SAFETY: the state is IDLE (every join waits for DONE and resets it), so the
+        // helper does not read the slot now.
+        unsafe { *self.shared.job.get() = Some(ptr) };
+        self.shared.state.store(READY, Ordering::Release);
+        self.thread.unpark();
+        let out = {
+            let _wait = Wait(&self.shared);
+            main()
+        };
+        if self.shared.panicked.swap(false, Ordering::Relaxed) {
+            panic!("the helper thread's job panicked");
+        }
+        out
+    }
+}
+
+/// Waits for the helper's DONE on drop, then marks the slot IDLE.
+struct Wait<'a>(&'a Shared);
+
+impl Drop for Wait<'_> {
+    fn drop(&mut self) {
+        wait_until(|| self.0.state.load(Ordering::Acquire) == DONE);
+        self.0.state.store(IDLE, Ordering::Relaxed);
+    }
+}
+
+/// Spins until `ready()` holds, yielding now and then in case the thread that makes it
+/// hold was descheduled (the two threads share the machine with others).
+#[inline]
+pub fn wait_until(mut ready: impl FnMut() -> bool) {
+    let mut spins = 0u32;
+    while !ready() {
+        spins = spins.wrapping_add(1);
+        if spins.is_multiple_of(1024) {
+            thread::yield_now();
+        } else {
+            spin_loop();
+        }
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        self.shared.state.store(EXIT, Ordering::Release);
+        self.thread.unpark();
+        if let Some(h) = self.handle.take() {
+            // The helper only exits through EXIT; a join error would be a panic outside a
+            // job, which cannot happen.
+            let _ = h.join();
+        }
+    }
+}
+
+fn helper_loop(s: &Shared) {
+    loop {
+        let idle_since = Instant::now();
+        let mut polls = 0u32;
+        loop {
+            match s.state.load(Ordering::Acquire) {
+                READY => break,
+                EXIT => return,
+                _ => {}
+            }
+            polls = polls.wrapping_add(1);
+            if polls.is_multiple_of(256) && idle_since.elapsed() > SPIN {
+                // An unpark between the check above and this call makes it return at once.
+                thread::park();
+            } else {
+                spin_loop();
+            }
+        }
+        // SAFETY: READY was observed with acquire ordering after the caller wrote the slot.
+        let job = unsafe { (*s.job.get()).take() };
+        if let Some(job) = job {
+            // SAFETY: the caller is blocked in `join` until DONE, so the job is alive.
+            let ran = catch_unwind(AssertUnwindSafe(|| unsafe { (*job)() }));
+            if ran.is_err() {
+                s.panicked.store(true, Ordering::Relaxed);
+            }
+        }
+        s.state.store(DONE, Ordering::Release);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::AtomicUsize;
+
+    #[test]
+    fn runs_the_job_beside_the_caller_many_times() {
+        let mut w = Worker::start().expect("spawn");
+        let hits = AtomicUsize::new(0);
+        for i in 0..1000 {
+            let seen = w.join(
+                &|| {
+                    hits.fetch_add(1, Ordering::Relaxed);
+                },
+                || i,
+            );
+            assert_eq!(seen, i);
+        }
+        assert_eq!(hits.load(Ordering::Relaxed), 1000);
+    }
+
+    #[test]
+    fn the_caller_can_wait_on_the_helpers_progress() {
+        let mut w = Worker::start().expect("spawn");
+        let done = AtomicUsize::new(0);
+        let sum = w.join(
+            &|| {
+                for i in 1..=100 {
+                    done.store(i, Ordering::Release);
+                }
+            },
+            || {
+                let mut sum = 0;
+                for need in 1..=100 {
+                    while done.load(Ordering::Acquire) < need {
+                        spin_loop();
+                    }
+                    sum += need;
+                }
+                sum
+            },
+        );
+        assert_eq!(sum, 5050);
+    }
+
+    #[test]
+    fn a_panicking_job_is_reported_to_the_caller_and_the_worker_survives() {
+        let mut w = Worker::start().expect("spawn");
+        let r = catch_unwind(AssertUnwindSafe(|| w.join(&|| panic!("job"), || 1)));
+        assert!(r.is_err());
+        assert_eq!(w.join(&|| {}, || 2), 2);
+    }
+
+    #[test]
+    fn an_idle_helper_parks_and_wakes_up() {
+        let mut w = Worker::start().expect("spawn");
+        std::thread::sleep(SPIN * 4);
+        let hit = AtomicBool::new(false);
+        w.join(&|| hit.store(true, Ordering::Relaxed), || ());
+        assert!(hit.load(Ordering::Relaxed));
+    }
+}

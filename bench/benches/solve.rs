@@ -1,7 +1,8 @@
 //! Whole solves from the equilibrium guess: the oval (paper Table I row implicit Euler /
-//! Fig. 4b), with the per-phase split printed once, for the fast derivative path and the
-//! num-dual oracle; and each race segment S01-S10 (paper Table II, issue #7: each under
-//! 20 ms median), one criterion group per segment.
+//! Fig. 4b), with the per-phase split printed once, for the fast derivative path, the
+//! num-dual oracle and `threads = 2` (helper thread for the factorization and the Hessian);
+//! and each race segment S01-S10 (paper Table II, issue #7: each under 20 ms median), one
+//! criterion group per segment, with one and two threads.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use planner::guess::GuessKind;
@@ -21,6 +22,12 @@ fn oval(c: &mut Criterion) {
             b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
         });
     }
+    let name = "oval_equilibrium_threads2";
+    let mut p = bench::planner_for_with("oval.toml", None, |_, s| s.threads = 2);
+    report(name, &mut p);
+    g.bench_function(name, |b| {
+        b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
+    });
     g.finish();
 }
 
@@ -45,13 +52,21 @@ fn report(name: &str, p: &mut planner::plan::Planner<100>) {
 fn segments(c: &mut Criterion) {
     for k in 1..=10 {
         let name = format!("S{k:02}");
-        let mut p = bench::planner_for("segments.toml", Some(&name));
-        report(&name, &mut p);
         let mut g = c.benchmark_group(format!("segment_{name}"));
         g.sample_size(10);
-        g.bench_function("equilibrium", |b| {
-            b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
-        });
+        for threads in [1, 2] {
+            let mut p =
+                bench::planner_for_with("segments.toml", Some(&name), |_, s| s.threads = threads);
+            report(&format!("{name} (threads {threads})"), &mut p);
+            let id = if threads == 1 {
+                "equilibrium".to_string()
+            } else {
+                "equilibrium_threads2".to_string()
+            };
+            g.bench_function(id, |b| {
+                b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
+            });
+        }
         g.finish();
     }
 }

@@ -68,8 +68,10 @@ impl<const N: usize> Planner<N> {
             InitialState::Free => DEFAULT_GUESS_SPEED,
         };
         let equilibrium = guess::equilibrium(&spec.vehicle, spec.v_min, spec.v_max, v_start)?;
-        let nlp = ImplicitEulerNlp::<N>::new(spec)?;
+        let mut nlp = ImplicitEulerNlp::<N>::new(spec)?;
         let solver = Solver::new(&nlp, settings)?;
+        // threads = 2: the Hessian evaluation shares the factorization's helper thread.
+        nlp.set_worker(solver.kkt().worker());
         Ok(Self {
             nlp,
             solver,

@@ -1,6 +1,7 @@
 //! A persistent helper thread that runs one borrowed job beside the caller (a fork-join of
 //! two), allocation-free once started: the hot path never spawns a thread or boxes a job.
-//! The pipelined Riccati factorization uses it (`threads = 2` in `config/solver.toml`).
+//! With `threads = 2` (`config/solver.toml`) one worker is shared ([`SharedWorker`]) by the
+//! pipelined Riccati factorization and the stage-parallel Hessian evaluation.
 //!
 //! Between jobs the helper spins for [`SPIN`] and then parks, so a solve (a job every few
 //! hundred microseconds) keeps it awake and an idle planner leaves the core alone.
@@ -9,7 +10,7 @@ use std::cell::UnsafeCell;
 use std::hint::spin_loop;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::{self, JoinHandle, Thread};
 use std::time::{Duration, Instant};
 
@@ -24,7 +25,7 @@ const EXIT: u32 = 3;
 
 /// A job whose lifetime was erased by [`Worker::join`], which does not return before the
 /// helper has finished with it.
-type JobPtr = *const (dyn Fn() + Sync);
+type JobPtr = *mut (dyn FnMut() + Send);
 
 struct Shared {
     state: AtomicU32,
@@ -33,10 +34,26 @@ struct Shared {
 }
 
 // SAFETY: `job` is written by the caller only while the state is IDLE and read by the helper
-// only after it observed READY (release/acquire on `state`); the job itself is `Sync`.
+// only after it observed READY (release/acquire on `state`); the job itself is `Send` and
+// runs on the helper alone.
 unsafe impl Sync for Shared {}
 // SAFETY: as above; the pointer is only dereferenced under that protocol.
 unsafe impl Send for Shared {}
+
+/// One worker shared by the parts of a solver that fork work to it (they run one after
+/// the other, never at once, so the lock is always free).
+pub type SharedWorker = Arc<Mutex<Worker>>;
+
+/// Starts a worker to be shared (allocates; call at setup).
+pub fn shared() -> std::io::Result<SharedWorker> {
+    Ok(Arc::new(Mutex::new(Worker::start()?)))
+}
+
+/// Locks a shared worker (a job that panicked poisons nothing that matters: the slot and
+/// state are reset by then).
+pub fn lock(w: &SharedWorker) -> MutexGuard<'_, Worker> {
+    w.lock().unwrap_or_else(PoisonError::into_inner)
+}
 
 /// The helper thread and its job slot.
 pub struct Worker {
@@ -76,12 +93,13 @@ impl Worker {
     /// Runs `job` on the helper thread and `main` on this one, and returns `main`'s result
     /// once both are done (also when `main` panics: the helper is waited for first). A panic
     /// in `job` is raised here after both finished.
-    pub fn join<R>(&mut self, job: &(dyn Fn() + Sync), main: impl FnOnce() -> R) -> R {
+    pub fn join<R>(&mut self, job: &mut (dyn FnMut() + Send), main: impl FnOnce() -> R) -> R {
         // SAFETY: only the lifetime is erased; `Wait` below does not let this function
         // return or unwind before the helper reports DONE, after which it never touches
         // the job again.
-        let ptr: JobPtr =
-            unsafe { std::mem::transmute::<&(dyn Fn() + Sync), &'static (dyn Fn() + Sync)>(job) };
+        let ptr: JobPtr = unsafe {
+            std::mem::transmute::<&mut (dyn FnMut() + Send), &'static mut (dyn FnMut() + Send)>(job)
+        };
         // SAFETY: the state is IDLE (every join waits for DONE and resets it), so the
         // helper does not read the slot now.
         unsafe { *self.shared.job.get() = Some(ptr) };
@@ -156,7 +174,8 @@ fn helper_loop(s: &Shared) {
         // SAFETY: READY was observed with acquire ordering after the caller wrote the slot.
         let job = unsafe { (*s.job.get()).take() };
         if let Some(job) = job {
-            // SAFETY: the caller is blocked in `join` until DONE, so the job is alive.
+            // SAFETY: the caller is blocked in `join` until DONE, so the job is alive, and
+            // nothing else uses it meanwhile.
             let ran = catch_unwind(AssertUnwindSafe(|| unsafe { (*job)() }));
             if ran.is_err() {
                 s.panicked.store(true, Ordering::Relaxed);
@@ -177,7 +196,7 @@ mod tests {
         let hits = AtomicUsize::new(0);
         for i in 0..1000 {
             let seen = w.join(
-                &|| {
+                &mut || {
                     hits.fetch_add(1, Ordering::Relaxed);
                 },
                 || i,
@@ -192,7 +211,7 @@ mod tests {
         let mut w = Worker::start().expect("spawn");
         let done = AtomicUsize::new(0);
         let sum = w.join(
-            &|| {
+            &mut || {
                 for i in 1..=100 {
                     done.store(i, Ordering::Release);
                 }
@@ -214,9 +233,9 @@ mod tests {
     #[test]
     fn a_panicking_job_is_reported_to_the_caller_and_the_worker_survives() {
         let mut w = Worker::start().expect("spawn");
-        let r = catch_unwind(AssertUnwindSafe(|| w.join(&|| panic!("job"), || 1)));
+        let r = catch_unwind(AssertUnwindSafe(|| w.join(&mut || panic!("job"), || 1)));
         assert!(r.is_err());
-        assert_eq!(w.join(&|| {}, || 2), 2);
+        assert_eq!(w.join(&mut || {}, || 2), 2);
     }
 
     #[test]
@@ -224,7 +243,7 @@ mod tests {
         let mut w = Worker::start().expect("spawn");
         std::thread::sleep(SPIN * 4);
         let hit = AtomicBool::new(false);
-        w.join(&|| hit.store(true, Ordering::Relaxed), || ());
+        w.join(&mut || hit.store(true, Ordering::Relaxed), || ());
         assert!(hit.load(Ordering::Relaxed));
     }
 }

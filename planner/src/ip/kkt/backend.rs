@@ -162,6 +162,12 @@ impl KktBackend {
         }
     }
 
+    /// The helper thread of the pipelined Riccati factorization (`threads = 2`), to share
+    /// with the NLP's stage-parallel evaluation.
+    pub fn worker(&self) -> Option<crate::worker::SharedWorker> {
+        self.riccati.as_ref().and_then(|r| r.worker().cloned())
+    }
+
     /// Factorizations the Riccati backend handed to the sparse one since setup.
     pub fn fallbacks(&self) -> usize {
         self.fallbacks

@@ -29,7 +29,7 @@
 
 use super::structure::{RowRole, StageStructure};
 use super::{Inertia, KktError, KktSolver, KktValues};
-use crate::worker::{wait_until, Worker};
+use crate::worker::{self, wait_until, SharedWorker};
 use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::lblt;
@@ -228,7 +228,7 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     u_pairs: Vec<UnitPair>,
     inverses: Vec<StageInverse<NX>>,
     /// The helper thread of the pipelined factorization (`threads = 2`), if any.
-    worker: Option<Worker>,
+    worker: Option<SharedWorker>,
     /// All assembled blocks, column-major: W_k (k = 0..=N; W_N uses the NX x NX corner),
     /// X_k (rows z_{k+1}, columns z_k), E_k (index N: initial rows), J_k.
     arena: Vec<f64>,
@@ -850,12 +850,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 // SAFETY: one thread; every unit is written once, before its stage reads it.
                 unsafe { asm.unit(k, v) }
             })?,
-            Some(worker) => {
+            Some(shared) => {
                 // Units done, in sweep order (N, N-1, .., 0); the sweep stops the helper
                 // when it stops early.
                 let done = AtomicUsize::new(0);
                 let cancel = AtomicBool::new(false);
-                let job = || {
+                let mut job = || {
                     for (i, k) in (0..=big).rev().enumerate() {
                         if cancel.load(Ordering::Relaxed) {
                             break;
@@ -866,7 +866,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                         done.store(i + 1, Ordering::Release);
                     }
                 };
-                worker.join(&job, || {
+                worker::lock(shared).join(&mut job, || {
                     let out = sweep.run(&asm, |k| {
                         let need = big - k + 1;
                         wait_until(|| done.load(Ordering::Acquire) >= need);
@@ -978,11 +978,17 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     /// thread. Starts the helper (allocates; call at setup) or stops it.
     pub fn set_pipelined(&mut self, on: bool) -> std::io::Result<()> {
         match (on, self.worker.is_some()) {
-            (true, false) => self.worker = Some(Worker::start()?),
+            (true, false) => self.worker = Some(worker::shared()?),
             (false, true) => self.worker = None,
             _ => {}
         }
         Ok(())
+    }
+
+    /// The helper thread of the pipelined factorization, to share with other stage-parallel
+    /// work of the same solve.
+    pub fn worker(&self) -> Option<&SharedWorker> {
+        self.worker.as_ref()
     }
 
     /// Whether a helper thread pipelines the factorization.
@@ -1209,6 +1215,8 @@ struct Assembly<'a, const NX: usize, const NZ: usize> {
 // SAFETY: shared between the sweep and the helper only under the protocol described on the
 // type (each unit's memory is written by one thread before the other reads it).
 unsafe impl<const NX: usize, const NZ: usize> Sync for Assembly<'_, NX, NZ> {}
+// SAFETY: as above.
+unsafe impl<const NX: usize, const NZ: usize> Send for Assembly<'_, NX, NZ> {}
 
 impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
     /// Writes unit `k` (see [`Unit`]): zeroes, Jacobian and Hessian values, the primal

@@ -46,6 +46,8 @@ use crate::ip::{Nlp, NlpDims};
 use crate::model::{ix, VehicleParams, CONTROL_NAMES, NU, NX, STATE_NAMES};
 use std::collections::HashMap;
 
+use crate::worker::{self, SharedWorker};
+
 /// Read-only problem data a [`DefectScheme`] evaluates with.
 #[derive(Debug, Clone, Copy)]
 pub struct SchemeContext<'a> {
@@ -76,7 +78,7 @@ pub enum Derivatives {
 /// All values are in scaled units; Jacobian values are written in `jac_pattern` order and
 /// Hessian values (of `lambda^T defect_k`, lower triangle, global indices) in `hess_pattern`
 /// order. Patterns are queried once at construction; evaluations must not allocate.
-pub trait DefectScheme {
+pub trait DefectScheme: Sync {
     /// Extra variables per interval (collocation stage states); 0 for single-step schemes.
     const STAGE_VARS: usize;
     /// Defect rows per interval.
@@ -198,6 +200,15 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
     hess_defect_slots: Vec<usize>,
     hess_sat_slots: Vec<usize>,
     scratch: Vec<f64>,
+    /// The stage-parallel Hessian ([`Self::set_worker`]): the helper thread, its scratch,
+    /// the first stage it takes, and per position of that stage's slots (defect, then
+    /// saturation) whether an earlier stage writes the slot too; such values wait in
+    /// `hess_side` and are added after the earlier stages', in the serial order.
+    worker: Option<SharedWorker>,
+    hess_split: usize,
+    hess_deferred: Vec<bool>,
+    hess_side: Vec<f64>,
+    scratch2: Vec<f64>,
     /// Evaluate derivatives in the AVX2-compiled copy ([`crate::cpu`]; same bits).
     simd: bool,
     g_buf: Vec<f64>,
@@ -208,6 +219,82 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
     z0: Vec<f64>,
     rows: Vec<RowInfo>,
 }
+
+/// What one stage's Hessian terms need, shared by the serial and the stage-parallel
+/// evaluation.
+struct HessParts<'a, S> {
+    scheme: &'a S,
+    cx: &'a SchemeContext<'a>,
+    stages: &'a [Stage],
+    defect_off: &'a [usize],
+    defect_slots: &'a [usize],
+    sat_slots: &'a [usize],
+    saturation: bool,
+}
+
+impl<S: DefectScheme> HessParts<'_, S> {
+    /// Stage k's Hessian terms in the serial order: `emit(position, slot, value)` for its
+    /// defect block, then its saturation block (positions count on across both).
+    #[inline(always)]
+    fn stage(
+        &self,
+        k: usize,
+        x: &[f64],
+        lambda: &[f64],
+        scratch: &mut [f64],
+        mut emit: impl FnMut(usize, usize, f64),
+    ) {
+        let st = &self.stages[k];
+        let slots = &self.defect_slots[self.defect_off[k]..self.defect_off[k + 1]];
+        self.scheme.hess(
+            self.cx,
+            k,
+            x,
+            &lambda[st.row_defect..st.row_defect + S::ROWS],
+            &mut scratch[..slots.len()],
+        );
+        for (pos, (&s, &v)) in slots.iter().zip(scratch.iter()).enumerate() {
+            emit(pos, s, v);
+        }
+        if self.saturation {
+            let base = slots.len();
+            let slots = &self.sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
+            let lam = &lambda[st.row_sat..st.row_sat + SATURATION_ROWS];
+            let out = &mut scratch[..SATURATION_HESS_NNZ];
+            let (p, lay) = (self.cx.vehicle, &self.cx.layout);
+            if self.cx.oracle {
+                saturation_hess(p, lay, k, x, lam, out);
+            } else {
+                saturation_hess_fast(p, lay, k, x, lam, out);
+            }
+            for (pos, (&s, &v)) in slots.iter().zip(scratch.iter()).enumerate() {
+                emit(base + pos, s, v);
+            }
+        }
+    }
+
+    /// The (position, slot) pairs of stage k in the order of [`Self::stage`].
+    fn stage_slots(&self, k: usize, mut f: impl FnMut(usize, usize)) {
+        let slots = &self.defect_slots[self.defect_off[k]..self.defect_off[k + 1]];
+        for (pos, &s) in slots.iter().enumerate() {
+            f(pos, s);
+        }
+        if self.saturation {
+            let sat = &self.sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
+            for (pos, &s) in sat.iter().enumerate() {
+                f(slots.len() + pos, s);
+            }
+        }
+    }
+}
+
+/// A raw output pointer handed to the helper thread (disjoint slots, see
+/// `Transcription::eval_hess_body`).
+struct SendPtr(*mut f64);
+// SAFETY: the two threads write disjoint entries through it and the caller joins first.
+unsafe impl Send for SendPtr {}
+// SAFETY: as above.
+unsafe impl Sync for SendPtr {}
 
 /// Upper bound of the rear saturation row at node 0 with a fixed initial state (scaled;
 /// sigma - sigma_sl <= 100, never active).
@@ -390,6 +477,11 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             hess_defect_slots,
             hess_sat_slots,
             scratch: vec![0.0; max_block],
+            worker: None,
+            hess_split: 0,
+            hess_deferred: Vec::new(),
+            hess_side: Vec::new(),
+            scratch2: vec![0.0; max_block],
             simd: crate::cpu::avx2_available(),
             g_buf: vec![0.0; m],
             x_l: vec![0.0; n],
@@ -768,7 +860,8 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
 }
 
 impl<S: DefectScheme, const N: usize> Transcription<S, N> {
-    /// Hessian values, inlined into both the baseline and the AVX2 entry point.
+    /// Hessian values, inlined into both the baseline and the AVX2 entry point. With a
+    /// worker the stages after `hess_split` run on the helper thread; same bits.
     #[inline(always)]
     fn eval_hess_body(&mut self, x: &[f64], lambda: &[f64], vals: &mut [f64]) {
         vals.fill(0.0);
@@ -779,37 +872,86 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             layout: self.layout,
             oracle: self.derivatives == Derivatives::Oracle,
         };
-        let lay = &self.layout;
-        let p = &self.spec.vehicle;
+        let parts = HessParts {
+            scheme: &self.scheme,
+            cx: &cx,
+            stages: &self.stages,
+            defect_off: &self.hess_defect_off,
+            defect_slots: &self.hess_defect_slots,
+            sat_slots: &self.hess_sat_slots,
+            saturation: self.spec.enforce_tire_saturation,
+        };
+        let Some(shared) = self.worker.as_ref().filter(|_| self.hess_split > 0) else {
+            for k in 0..N {
+                parts.stage(k, x, lambda, &mut self.scratch, |_, s, v| vals[s] += v);
+            }
+            return;
+        };
+        let split = self.hess_split;
+        let out = SendPtr(vals.as_mut_ptr());
+        let (deferred, side, scratch2) =
+            (&self.hess_deferred, &mut self.hess_side, &mut self.scratch2);
+        let mut job = || {
+            let out = &out;
+            for k in split..N {
+                parts.stage(k, x, lambda, scratch2, |pos, s, v| {
+                    if k == split && deferred[pos] {
+                        side[pos] = v;
+                    } else {
+                        // SAFETY: slots of stages >= split that no earlier stage writes:
+                        // this thread's alone until the join.
+                        unsafe { *out.0.add(s) += v };
+                    }
+                });
+            }
+        };
         let scratch = &mut self.scratch;
-        for (k, st) in self.stages.iter().enumerate() {
-            let slots =
-                &self.hess_defect_slots[self.hess_defect_off[k]..self.hess_defect_off[k + 1]];
-            self.scheme.hess(
-                &cx,
-                k,
-                x,
-                &lambda[st.row_defect..st.row_defect + S::ROWS],
-                &mut scratch[..slots.len()],
-            );
-            for (&s, &v) in slots.iter().zip(scratch.iter()) {
-                vals[s] += v;
+        worker::lock(shared).join(&mut job, || {
+            for k in 0..split {
+                // SAFETY: slots of stages < split (the helper defers those it shares).
+                parts.stage(k, x, lambda, scratch, |_, s, v| unsafe {
+                    *out.0.add(s) += v
+                });
             }
-            if self.spec.enforce_tire_saturation {
-                let slots =
-                    &self.hess_sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
-                let lam = &lambda[st.row_sat..st.row_sat + SATURATION_ROWS];
-                let out = &mut scratch[..SATURATION_HESS_NNZ];
-                if cx.oracle {
-                    saturation_hess(p, lay, k, x, lam, out);
-                } else {
-                    saturation_hess_fast(p, lay, k, x, lam, out);
-                }
-                for (&s, &v) in slots.iter().zip(scratch.iter()) {
-                    vals[s] += v;
-                }
+        });
+        parts.stage_slots(split, |pos, s| {
+            if self.hess_deferred[pos] {
+                vals[s] += self.hess_side[pos];
             }
+        });
+    }
+
+    /// Lets the Hessian evaluation run its second half of the stages on `worker`'s helper
+    /// thread (None: serial). Allocates; call at setup. Serial anyway if a slot of the
+    /// helper's first stage is shared with a later stage too (not so on this OCP).
+    pub fn set_worker(&mut self, worker: Option<SharedWorker>) {
+        self.worker = worker;
+        self.hess_split = 0;
+        if self.worker.is_none() || N < 2 {
+            return;
         }
+        let split = N / 2;
+        let slots = |k: usize| {
+            let d = &self.hess_defect_slots[self.hess_defect_off[k]..self.hess_defect_off[k + 1]];
+            let sat = self
+                .hess_sat_slots
+                .get(k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ)
+                .unwrap_or(&[]);
+            d.iter().chain(sat).copied().collect::<Vec<usize>>()
+        };
+        let before: std::collections::HashSet<usize> = (0..split).flat_map(slots).collect();
+        let after: std::collections::HashSet<usize> = (split + 1..N).flat_map(slots).collect();
+        let first = slots(split);
+        self.hess_deferred = first.iter().map(|s| before.contains(s)).collect();
+        if first
+            .iter()
+            .zip(&self.hess_deferred)
+            .any(|(s, &d)| d && after.contains(s))
+        {
+            return;
+        }
+        self.hess_side = vec![0.0; first.len()];
+        self.hess_split = split;
     }
 
     /// Jacobian values, inlined into both the baseline and the AVX2 entry point.

@@ -637,17 +637,23 @@ fn a_failed_stage_leaves_no_stale_inverse() {
     assert_eq!(step(&mut kkt, &a), fresh);
 }
 
-/// Inertia correction only needs to know that the inertia is wrong: asked for (n, m),
-/// the sweep stops at the first stage with an excess negative pivot (here stage 50's
-/// controls, given a negative diagonal) and holds no factorization. The next
-/// factorization is the same as a fresh backend's, and a caller that expects any other
-/// inertia, or none, still gets the full count.
-#[test]
-fn wrong_inertia_stops_the_sweep_early() {
+/// Two KKT systems of the oval at random points, the first with a primal block convex
+/// enough for the correct inertia (n, m); a copy of it whose stage `bad_stage` controls have
+/// a large negative diagonal (an excess negative pivot there); that inertia; the rng.
+fn inertia_fixture(
+    seed: u64,
+    bad_stage: usize,
+) -> (
+    planner::ip::kkt::StageStructure,
+    System,
+    System,
+    System,
+    Inertia,
+    Rng,
+) {
     let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
     let structure = nlp.stage_structure().unwrap();
-    let (mut a, _, mut rng) = two_points(&mut nlp, 7);
-    // A convex enough primal block: the correct inertia (n, m).
+    let (mut a, b, rng) = two_points(&mut nlp, seed);
     a.dx.iter_mut().for_each(|d| *d += 1e3);
     let correct = Inertia {
         positive: a.n,
@@ -657,8 +663,19 @@ fn wrong_inertia_stops_the_sweep_early() {
     let layout = Layout::new(100, 0);
     let mut bad = a.clone();
     for j in 0..3 {
-        bad.dx[layout.u(50, j)] = -1e9;
+        bad.dx[layout.u(bad_stage, j)] = -1e9;
     }
+    (structure, a, b, bad, correct, rng)
+}
+
+/// Inertia correction only needs to know that the inertia is wrong: asked for (n, m),
+/// the sweep stops at the first stage with an excess negative pivot (here stage 50's
+/// controls, given a negative diagonal) and holds no factorization. The next
+/// factorization is the same as a fresh backend's, and a caller that expects any other
+/// inertia, or none, still gets the full count.
+#[test]
+fn wrong_inertia_stops_the_sweep_early() {
+    let (structure, a, _, bad, correct, mut rng) = inertia_fixture(7, 50);
     let rhs = random_rhs(&a, &mut rng);
     let mut kkt = riccati_for(&structure, &a);
     assert_eq!(kkt.factorize(&a.values()).unwrap(), correct);
@@ -696,20 +713,7 @@ fn wrong_inertia_stops_the_sweep_early() {
 #[test]
 fn pipelined_factorization_equals_one_thread() {
     use planner::ip::kkt::RowRole;
-    let mut nlp = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
-    let structure = nlp.stage_structure().unwrap();
-    let (mut a, b, mut rng) = two_points(&mut nlp, 11);
-    a.dx.iter_mut().for_each(|d| *d += 1e3);
-    let correct = Inertia {
-        positive: a.n,
-        negative: a.m,
-        zero: 0,
-    };
-    let layout = Layout::new(100, 0);
-    let mut bad = a.clone();
-    for j in 0..3 {
-        bad.dx[layout.u(20, j)] = -1e9;
-    }
+    let (structure, a, b, bad, correct, mut rng) = inertia_fixture(11, 20);
     let mut singular = b.clone();
     for (q, (&r, &c)) in singular.jr.iter().zip(&singular.jc).enumerate() {
         if let RowRole::Dynamics { stage: 30, .. } = structure.rows[r] {

@@ -1,5 +1,6 @@
 //! One KKT factorization and one solve of the oval NLP (N = 100, implicit Euler) at the
-//! reference optimum, for the general sparse LDL^T and the Riccati backend side by side.
+//! reference optimum, for the general sparse LDL^T and the Riccati backend side by side,
+//! and the Riccati factorization pipelined over a helper thread (`threads = 2`).
 
 use bench::OvalKkt;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -37,6 +38,12 @@ fn kkt(c: &mut Criterion) {
     g.bench_function("riccati/factorize_regularized", |b| {
         b.iter(|| ric.factorize(black_box(&values)).expect("factorizes"))
     });
+    let mut piped = sys.riccati();
+    piped.set_pipelined(true).expect("helper thread starts");
+    g.bench_function("riccati/factorize_pipelined", |b| {
+        b.iter(|| piped.factorize(black_box(&values0)).expect("factorizes"))
+    });
+    drop(piped);
     ric.factorize(&values0).expect("factorizes");
     g.bench_function("riccati/solve", |b| {
         b.iter(|| {

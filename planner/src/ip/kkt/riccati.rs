@@ -111,6 +111,8 @@ struct StageInverse<const NX: usize> {
     e_in: SMatrix<f64, NX, NX>,
     /// Whether E_k of the current assembly is invertible (`f` is its inverse).
     ok: bool,
+    /// J_k = [-I, G] in the current assembly (see [`minus_identity_head`]).
+    j_minus_identity: bool,
 }
 
 impl<const NX: usize> Default for StageInverse<NX> {
@@ -119,6 +121,7 @@ impl<const NX: usize> Default for StageInverse<NX> {
             f: SMatrix::zeros(),
             e_in: SMatrix::repeat(f64::NAN),
             ok: false,
+            j_minus_identity: false,
         }
     }
 }
@@ -1262,9 +1265,17 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
             *a.add(pp.target as usize) +=
                 self.path_w[pp.row as usize] * v.jac[pp.a as usize] * v.jac[pp.b as usize];
         }
+        // W_k's upper triangle from its lower one (the sweep reads whole blocks).
+        let w = a.add(k * NZ * NZ);
+        for c in 0..NZ {
+            for r in c + 1..NZ {
+                *w.add(r * NZ + c) = *w.add(c * NZ + r);
+            }
+        }
         if k < self.stages {
             let e = std::slice::from_raw_parts(a.add(self.e_base + k * NX * NX), NX * NX);
             let inv = &mut *self.inverses.add(k);
+            inv.j_minus_identity = minus_identity_head(&self.j_block(k));
             if same_bits(inv.e_in.as_slice(), e) {
                 inv.ok = true;
             } else {
@@ -1289,16 +1300,10 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
         std::slice::from_raw_parts(self.arena.add(o), len)
     }
 
-    /// W_k, its upper triangle filled from the lower one. Safety: as [`Self::slice`].
+    /// W_k (both triangles, see [`Self::unit`]). Safety: as [`Self::slice`].
     #[inline(always)]
     unsafe fn w_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
-        let mut w = SMatrix::from_column_slice(self.slice(k * NZ * NZ, NZ * NZ));
-        for c in 0..NZ {
-            for r in c + 1..NZ {
-                w[(c, r)] = w[(r, c)];
-            }
-        }
-        w
+        SMatrix::from_column_slice(self.slice(k * NZ * NZ, NZ * NZ))
     }
 
     /// X_k. Safety: as [`Self::slice`].
@@ -1319,12 +1324,13 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
         SMatrix::from_column_slice(self.slice(self.j_base + k * NX * NZ, NX * NZ))
     }
 
-    /// E_k^-1, or `Unsupported` when E_k is singular. Safety: as [`Self::slice`].
+    /// E_k^-1 and whether J_k = [-I, G], or `Unsupported` when E_k is singular. Safety: as
+    /// [`Self::slice`].
     #[inline(always)]
-    unsafe fn inverse(&self, k: usize) -> Result<&SMatrix<f64, NX, NX>, KktError> {
+    unsafe fn inverse(&self, k: usize) -> Result<(&SMatrix<f64, NX, NX>, bool), KktError> {
         let inv = &*self.inverses.add(k);
         if inv.ok {
-            Ok(&inv.f)
+            Ok((&inv.f, inv.j_minus_identity))
         } else {
             Err(KktError::Unsupported)
         }
@@ -1371,7 +1377,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
         let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
         for k in (0..big).rev() {
             ready(k);
-            let f = unsafe { asm.inverse(k) }?;
+            let (f, j_minus_identity) = unsafe { asm.inverse(k) }?;
             let mut q = unsafe { asm.w_block(k) };
             q -= pending;
             let e = unsafe { asm.e_block(k) };
@@ -1383,7 +1389,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
             };
             let fac = &mut self.factors[k];
             fac.j = j;
-            fac.j_minus_identity = minus_identity_head(&j);
+            fac.j_minus_identity = j_minus_identity;
             let zero_delta = all_zero(self.delta[k].as_slice());
             let fast = zero_delta && fac.j_minus_identity;
             if fast {

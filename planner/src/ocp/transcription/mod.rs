@@ -200,12 +200,12 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
     hess_defect_slots: Vec<usize>,
     hess_sat_slots: Vec<usize>,
     scratch: Vec<f64>,
-    /// The stage-parallel Hessian ([`Self::set_worker`]): the helper thread, its scratch,
-    /// the first stage it takes, and per position of that stage's slots (defect, then
-    /// saturation) whether an earlier stage writes the slot too; such values wait in
-    /// `hess_side` and are added after the earlier stages', in the serial order.
+    /// The stage-parallel evaluation ([`Self::set_worker`]): the helper thread, its scratch,
+    /// the first stage it takes (0: serial), and per position of that stage's Hessian slots
+    /// (defect, then saturation) whether an earlier stage writes the slot too; such values
+    /// wait in `hess_side` and are added after the earlier stages', in the serial order.
     worker: Option<SharedWorker>,
-    hess_split: usize,
+    stage_split: usize,
     hess_deferred: Vec<bool>,
     hess_side: Vec<f64>,
     scratch2: Vec<f64>,
@@ -478,7 +478,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             hess_sat_slots,
             scratch: vec![0.0; max_block],
             worker: None,
-            hess_split: 0,
+            stage_split: 0,
             hess_deferred: Vec::new(),
             hess_side: Vec::new(),
             scratch2: vec![0.0; max_block],
@@ -793,23 +793,27 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
     }
 
     fn eval_g(&mut self, x: &[f64], g: &mut [f64]) {
-        let cx = self.context();
-        let lay = &self.layout;
-        let p = &self.spec.vehicle;
+        let this = &*self;
+        let cx = this.context();
+        let lay = &this.layout;
+        let p = &this.spec.vehicle;
         for (r, &i) in INITIAL_ROWS.iter().enumerate() {
             g[r] = x[lay.x(0, i)];
         }
-        for (k, st) in self.stages.iter().enumerate() {
-            self.scheme
-                .eval(&cx, k, x, &mut g[st.row_defect..st.row_defect + S::ROWS]);
-            friction_eval(p, lay, k, x, &mut g[st.row_friction..]);
-            if self.spec.enforce_tire_saturation {
-                saturation_eval(p, lay, k, x, &mut g[st.row_sat..]);
+        // Stage k's rows into `out`, which starts at row `off`.
+        let stage = |k: usize, out: &mut [f64], off: usize| {
+            let st = &this.stages[k];
+            let d = st.row_defect - off;
+            this.scheme.eval(&cx, k, x, &mut out[d..d + S::ROWS]);
+            friction_eval(p, lay, k, x, &mut out[st.row_friction - off..]);
+            if this.spec.enforce_tire_saturation {
+                saturation_eval(p, lay, k, x, &mut out[st.row_sat - off..]);
             }
             if k >= 1 {
-                rate_eval(p, lay, k, x, &mut g[st.row_rate..]);
+                rate_eval(p, lay, k, x, &mut out[st.row_rate - off..]);
             }
-        }
+        };
+        this.for_stages(g, |st| st.row_defect, stage);
     }
 
     fn eval_jac_g(&mut self, x: &[f64], vals: &mut [f64]) {
@@ -861,7 +865,7 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
 
 impl<S: DefectScheme, const N: usize> Transcription<S, N> {
     /// Hessian values, inlined into both the baseline and the AVX2 entry point. With a
-    /// worker the stages after `hess_split` run on the helper thread; same bits.
+    /// worker the stages after `stage_split` run on the helper thread; same bits.
     #[inline(always)]
     fn eval_hess_body(&mut self, x: &[f64], lambda: &[f64], vals: &mut [f64]) {
         vals.fill(0.0);
@@ -881,13 +885,13 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             sat_slots: &self.hess_sat_slots,
             saturation: self.spec.enforce_tire_saturation,
         };
-        let Some(shared) = self.worker.as_ref().filter(|_| self.hess_split > 0) else {
+        let Some(shared) = self.worker.as_ref().filter(|_| self.stage_split > 0) else {
             for k in 0..N {
                 parts.stage(k, x, lambda, &mut self.scratch, |_, s, v| vals[s] += v);
             }
             return;
         };
-        let split = self.hess_split;
+        let split = self.stage_split;
         let out = SendPtr(vals.as_mut_ptr());
         let (deferred, side, scratch2) =
             (&self.hess_deferred, &mut self.hess_side, &mut self.scratch2);
@@ -921,12 +925,13 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         });
     }
 
-    /// Lets the Hessian evaluation run its second half of the stages on `worker`'s helper
-    /// thread (None: serial). Allocates; call at setup. Serial anyway if a slot of the
-    /// helper's first stage is shared with a later stage too (not so on this OCP).
+    /// Lets the constraint, Jacobian and Hessian evaluations run their second half of the
+    /// stages on `worker`'s helper thread (None: serial); same bits. Allocates; call at
+    /// setup. Serial anyway if a Hessian slot of the helper's first stage is shared with a
+    /// later stage too (not so on this OCP).
     pub fn set_worker(&mut self, worker: Option<SharedWorker>) {
         self.worker = worker;
-        self.hess_split = 0;
+        self.stage_split = 0;
         if self.worker.is_none() || N < 2 {
             return;
         }
@@ -951,32 +956,68 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             return;
         }
         self.hess_side = vec![0.0; first.len()];
-        self.hess_split = split;
+        self.stage_split = split;
     }
 
     /// Jacobian values, inlined into both the baseline and the AVX2 entry point.
     #[inline(always)]
     fn eval_jac_body(&mut self, x: &[f64], vals: &mut [f64]) {
-        let cx = self.context();
-        let lay = &self.layout;
-        let p = &self.spec.vehicle;
-        vals[..self.n_init].fill(1.0);
-        for (k, st) in self.stages.iter().enumerate() {
-            let len = self.jac_defect_len[k];
-            self.scheme
-                .jac(&cx, k, x, &mut vals[st.jac_defect..st.jac_defect + len]);
-            friction_jac(p, &mut vals[st.jac_friction..]);
-            if self.spec.enforce_tire_saturation {
+        let this = &*self;
+        let cx = this.context();
+        let lay = &this.layout;
+        let p = &this.spec.vehicle;
+        vals[..this.n_init].fill(1.0);
+        // Stage k's entries into `out`, which starts at entry `off`.
+        let stage = |k: usize, out: &mut [f64], off: usize| {
+            let st = &this.stages[k];
+            let (d, len) = (st.jac_defect - off, this.jac_defect_len[k]);
+            this.scheme.jac(&cx, k, x, &mut out[d..d + len]);
+            friction_jac(p, &mut out[st.jac_friction - off..]);
+            if this.spec.enforce_tire_saturation {
                 if cx.oracle {
-                    saturation_jac(p, lay, k, x, &mut vals[st.jac_sat..]);
+                    saturation_jac(p, lay, k, x, &mut out[st.jac_sat - off..]);
                 } else {
-                    saturation_jac_fast(p, lay, k, x, &mut vals[st.jac_sat..]);
+                    saturation_jac_fast(p, lay, k, x, &mut out[st.jac_sat - off..]);
                 }
             }
             if k >= 1 {
-                rate_jac(p, &mut vals[st.jac_rate..]);
+                rate_jac(p, &mut out[st.jac_rate - off..]);
             }
-        }
+        };
+        this.for_stages(vals, |st| st.jac_defect, stage);
+    }
+
+    /// Runs `stage(k, out, off)` for k = 0..N over `out`, whose entries are grouped by stage
+    /// in stage order (`start(stage)` is a stage's first entry, Jacobian entries or rows).
+    /// With a worker, the stages from `stage_split` on run on the helper thread over the tail
+    /// of `out` (offset `off`). Disjoint writes, so the same bits.
+    #[inline(always)]
+    fn for_stages(
+        &self,
+        out: &mut [f64],
+        start: impl Fn(&Stage) -> usize,
+        stage: impl Fn(usize, &mut [f64], usize) + Sync,
+    ) {
+        let Some(shared) = self.worker.as_ref().filter(|_| self.stage_split > 0) else {
+            for k in 0..N {
+                stage(k, out, 0);
+            }
+            return;
+        };
+        let split = self.stage_split;
+        let off = start(&self.stages[split]);
+        let (head, tail) = out.split_at_mut(off);
+        let stage = &stage;
+        let mut job = || {
+            for k in split..N {
+                stage(k, tail, off);
+            }
+        };
+        worker::lock(shared).join(&mut job, || {
+            for k in 0..split {
+                stage(k, head, 0);
+            }
+        });
     }
 
     #[cfg(target_arch = "x86_64")]

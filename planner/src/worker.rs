@@ -126,6 +126,10 @@ struct Wait<'a>(&'a Shared);
 impl Drop for Wait<'_> {
     fn drop(&mut self) {
         wait_until(|| self.0.state.load(Ordering::Acquire) == DONE);
+        if thread::panicking() {
+            // The caller's panic wins; a job panic of this join must not leak into the next.
+            self.0.panicked.store(false, Ordering::Relaxed);
+        }
         self.0.state.store(IDLE, Ordering::Relaxed);
     }
 }

@@ -864,7 +864,10 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 // when it stops early.
                 let done = AtomicUsize::new(0);
                 let cancel = AtomicBool::new(false);
+                // Set if the helper's job panics, so the sweep stops waiting (and panics).
+                let failed = AtomicBool::new(false);
                 let mut job = || {
+                    let _flag = PanicFlag(&failed);
                     for (i, k) in (0..=big).rev().enumerate() {
                         if cancel.load(Ordering::Relaxed) {
                             break;
@@ -880,7 +883,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 worker::lock(shared).join(&mut job, || {
                     let out = sweep.run(&asm, |k| {
                         let need = big - k + 1;
-                        wait_until(|| done.load(Ordering::Acquire) >= need);
+                        wait_until(|| {
+                            done.load(Ordering::Acquire) >= need || failed.load(Ordering::Acquire)
+                        });
+                        if done.load(Ordering::Acquire) < need {
+                            panic!("the helper thread's assembly panicked");
+                        }
                     });
                     cancel.store(true, Ordering::Relaxed);
                     out
@@ -1198,6 +1206,17 @@ impl<const NX: usize, const NU: usize, const NZ: usize> KktSolver for RiccatiKkt
 
     fn wants_dual_regularization(&self) -> bool {
         false
+    }
+}
+
+/// Sets its flag when dropped during a panic (the pipelined factorization's helper job).
+struct PanicFlag<'a>(&'a AtomicBool);
+
+impl Drop for PanicFlag<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.store(true, Ordering::Release);
+        }
     }
 }
 

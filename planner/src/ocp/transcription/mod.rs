@@ -927,8 +927,8 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
 
     /// Lets the constraint, Jacobian and Hessian evaluations run their second half of the
     /// stages on `worker`'s helper thread (None: serial); same bits. Allocates; call at
-    /// setup. Serial anyway if a Hessian slot of the helper's first stage is shared with a
-    /// later stage too (not so on this OCP).
+    /// setup. Serial anyway unless the only Hessian slots the two halves share are the
+    /// helper's first stage's with earlier stages (so on this OCP: it couples neighbours).
     pub fn set_worker(&mut self, worker: Option<SharedWorker>) {
         self.worker = worker;
         self.stage_split = 0;
@@ -948,10 +948,13 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         let after: std::collections::HashSet<usize> = (split + 1..N).flat_map(slots).collect();
         let first = slots(split);
         self.hess_deferred = first.iter().map(|s| before.contains(s)).collect();
+        // Only the helper's first stage may share slots with the first half, and those
+        // slots no later stage: anything else would have both threads add to one entry.
         if first
             .iter()
             .zip(&self.hess_deferred)
             .any(|(s, &d)| d && after.contains(s))
+            || after.iter().any(|s| before.contains(s))
         {
             return;
         }

@@ -98,11 +98,10 @@ struct Unit {
     pairs: (u32, u32),
 }
 
-/// One term of a path row's J_r^T J_r / |D_c| by Jacobian value indices.
+/// One term of a path row's J_r^T J_r / |D_c| by path-entry indices: adds
+/// `path_wv[a] * path_vals[b]`, i.e. (w_r J_ra) J_rb, to arena entry `target`.
 #[derive(Debug, Clone, Copy)]
 struct UnitPair {
-    /// Path row (its weight 1 / |D_c| in `path_w`).
-    row: u32,
     a: u32,
     b: u32,
     target: u32,
@@ -250,6 +249,8 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     path_w: Vec<f64>,
     /// Jacobian values of the path rows (parallel to `path_entries`), kept for the solves.
     path_vals: Vec<f64>,
+    /// Path-row Jacobian values times their row's weight (`path_w`), for the assembly.
+    path_wv: Vec<f64>,
     factors: Vec<StageFactor<NX, NU, NZ>>,
     /// Dense initial block [[P_0, E^T], [E, -Delta]] and its LBL^T factors.
     init: Mat<f64>,
@@ -550,12 +551,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             diag_u[unit_of(t)].push((i as u32, t));
         }
         let mut pairs_u: Vec<Vec<UnitPair>> = vec![Vec::new(); big + 1];
-        for (row, pr) in path_rows.iter().enumerate() {
+        for pr in &path_rows {
             for pp in &path_pairs[pr.pairs_start..pr.pairs_end] {
                 pairs_u[unit_of(pp.target)].push(UnitPair {
-                    row: row as u32,
-                    a: path_entries[pr.start + pp.a as usize].jac as u32,
-                    b: path_entries[pr.start + pp.b as usize].jac as u32,
+                    a: (pr.start + pp.a as usize) as u32,
+                    b: (pr.start + pp.b as usize) as u32,
                     target: pp.target,
                 });
             }
@@ -594,6 +594,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             rows,
             path_w: vec![0.0; path_rows.len()],
             path_vals: vec![0.0; path_entries.len()],
+            path_wv: vec![0.0; path_entries.len()],
             path_rows,
             path_entries,
             units,
@@ -645,6 +646,14 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
         for (val, e) in self.path_vals.iter_mut().zip(&self.path_entries) {
             *val = v.jac[e.jac];
+        }
+        for (pr, &w) in self.path_rows.iter().zip(&self.path_w) {
+            for (wv, &val) in self.path_wv[pr.start..pr.end]
+                .iter_mut()
+                .zip(&self.path_vals[pr.start..pr.end])
+            {
+                *wv = w * val;
+            }
         }
         Ok(self.path_rows.len())
     }
@@ -837,7 +846,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             hess: &self.u_hess,
             diag: &self.u_diag,
             pairs: &self.u_pairs,
-            path_w: &self.path_w,
+            path_wv: &self.path_wv,
+            path_vals: &self.path_vals,
             jac_assign: self.jac_assign,
             hess_assign: self.hess_assign,
             stages: big,
@@ -1231,7 +1241,8 @@ struct Assembly<'a, const NX: usize, const NZ: usize> {
     hess: &'a [(u32, u32)],
     diag: &'a [(u32, u32)],
     pairs: &'a [UnitPair],
-    path_w: &'a [f64],
+    path_wv: &'a [f64],
+    path_vals: &'a [f64],
     jac_assign: bool,
     hess_assign: bool,
     stages: usize,
@@ -1268,29 +1279,35 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
                 std::ptr::write_bytes(a.add(t as usize), 0, len as usize);
             }
         }
-        for &(q, t) in &self.jac[span(u.jac)] {
-            let jv = v.jac[q as usize];
-            if self.jac_assign {
-                *a.add(t as usize) = jv;
-            } else {
-                *a.add(t as usize) += jv;
+        let jac = &self.jac[span(u.jac)];
+        if self.jac_assign {
+            for &(q, t) in jac {
+                *a.add(t as usize) = v.jac[q as usize];
+            }
+        } else {
+            for &(q, t) in jac {
+                *a.add(t as usize) += v.jac[q as usize];
             }
         }
-        for &(q, t) in &self.hess[span(u.hess)] {
-            let h = v.hess[q as usize];
-            if self.hess_assign {
-                // 0 + h, not h: the bits of the summed version, signed zeros too.
-                *a.add(t as usize) = 0.0 + h;
-            } else {
-                *a.add(t as usize) += h;
+        let hess = &self.hess[span(u.hess)];
+        if self.hess_assign {
+            // 0 + h, not h: the bits of the summed version, signed zeros too.
+            for &(q, t) in hess {
+                *a.add(t as usize) = 0.0 + v.hess[q as usize];
+            }
+        } else {
+            for &(q, t) in hess {
+                *a.add(t as usize) += v.hess[q as usize];
             }
         }
         for &(i, t) in &self.diag[span(u.diag)] {
             *a.add(t as usize) += v.primal_diag[i as usize];
         }
+        // SAFETY (indices): `a` and `b` index path entries, built with `path_wv` and
+        // `path_vals` of the same length at setup.
         for pp in &self.pairs[span(u.pairs)] {
-            *a.add(pp.target as usize) +=
-                self.path_w[pp.row as usize] * v.jac[pp.a as usize] * v.jac[pp.b as usize];
+            *a.add(pp.target as usize) += *self.path_wv.get_unchecked(pp.a as usize)
+                * *self.path_vals.get_unchecked(pp.b as usize);
         }
         // W_k's upper triangle from its lower one (the sweep reads whole blocks).
         let w = a.add(k * NZ * NZ);

@@ -134,12 +134,10 @@ impl<const NX: usize> Default for StageInverse<NX> {
 /// Factors of one stage, kept for the solves.
 #[derive(Debug, Clone)]
 struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
-    /// Dynamics Jacobian wrt z_k.
-    j: SMatrix<f64, NX, NZ>,
-    /// J = [-I, G] (implicit Euler): the solves multiply by G alone.
+    /// J_k = [-I, G] (implicit Euler): the solves multiply by G alone. (J_k itself stays in
+    /// the arena and F = E_k^-1 in the stage's [`StageInverse`] until the next assembly;
+    /// the solves read them there.)
     j_minus_identity: bool,
-    /// F = E^-1.
-    f: SMatrix<f64, NX, NX>,
     /// Delta_k = 0: [[P^, I], [I, 0]]^-1 = [[0, I], [I, -P^]] and a11, a12 are unused.
     zero_delta: bool,
     /// Blocks of [[P^, I], [I, -Delta]]^-1 = [[a11, a12], [a12^T, a22]].
@@ -153,8 +151,9 @@ struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
     sx_d: SVector<f64, NX>,
     e: SMatrix<f64, NX, NX>,
     delta: f64,
-    /// Coupling Y of z_k to x_{k+1} at elimination time, and C^ = Y F.
-    y: SMatrix<f64, NZ, NX>,
+    /// Coupling Y of z_k to x_{k+1} at elimination time, stored transposed (Y^T, NX x NZ),
+    /// and C^ = Y F.
+    yt: SMatrix<f64, NX, NZ>,
     chat: SMatrix<f64, NZ, NX>,
     /// Q_uu = L D L^T (unit lower L).
     quu_l: SMatrix<f64, NU, NU>,
@@ -167,9 +166,7 @@ struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
 impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<NX, NU, NZ> {
     fn default() -> Self {
         Self {
-            j: SMatrix::zeros(),
             j_minus_identity: false,
-            f: SMatrix::zeros(),
             zero_delta: true,
             lambda_first: false,
             sx_l: SMatrix::zeros(),
@@ -179,7 +176,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<
             a11: SMatrix::zeros(),
             a12: SMatrix::zeros(),
             a22: SMatrix::zeros(),
-            y: SMatrix::zeros(),
+            yt: SMatrix::zeros(),
             chat: SMatrix::zeros(),
             quu_l: SMatrix::zeros(),
             quu_d: SVector::zeros(),
@@ -658,6 +655,15 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         Ok(self.path_rows.len())
     }
 
+    /// J_k in the arena, in place (the solves read it there: it keeps its values until the
+    /// next assembly).
+    #[inline(always)]
+    fn j_in(arena: &[f64], j_base: usize, k: usize) -> &SMatrix<f64, NX, NZ> {
+        let o = j_base + k * NX * NZ;
+        block_ref(&arena[o..o + NX * NZ])
+    }
+
+    /// E_k (the arena's copy).
     #[inline(always)]
     fn e_block(&self, k: usize) -> SMatrix<f64, NX, NX> {
         let o = self.e_base + k * NX * NX;
@@ -667,21 +673,22 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     /// Eliminates the pair (x_{k+1}, lambda_k) (factor `fac` holds J, Y on entry) and
     /// returns z_k's block after the update, Q = W~ - C M^-1 C^T.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn eliminate_pair(
         fac: &mut StageFactor<NX, NU, NZ>,
         p: &SMatrix<f64, NX, NX>,
         e: &SMatrix<f64, NX, NX>,
         f: &SMatrix<f64, NX, NX>,
+        j: &SMatrix<f64, NX, NZ>,
         delta: &SVector<f64, NX>,
         q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
     ) -> Result<(), KktError> {
         let mut phat = mul_tn(f, &mul_nn(p, f));
         symmetrize(&mut phat);
-        fac.f = *f;
         // C^ = Y F (Y is zero outside the few rows of z_k that couple to x_{k+1}).
-        fac.chat = mul_nn(&fac.y, f);
-        let j = fac.j;
+        let y = fac.yt.transpose();
+        fac.chat = mul_nn(&y, f);
         fac.zero_delta = delta.iter().all(|&d| d == 0.0);
         fac.lambda_first = false;
         if fac.zero_delta {
@@ -740,11 +747,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             inertia.positive += NX - neg;
             inertia.negative += NX + neg;
             // Q = W~ - V S_x^-1 V^T + J^T J / delta with V = Y + J^T E / delta.
-            let v = fac.y + j.tr_mul(e) / d0;
+            let v = y + j.tr_mul(e) / d0;
             let mut gvt = v.transpose();
             ldlt_solve_cols(&l, &dd, &mut gvt);
             *q -= v * gvt;
-            *q += j.tr_mul(&j) / d0;
+            *q += j.tr_mul(j) / d0;
             symmetrize(q);
             fac.lambda_first = true;
             fac.sx_l = l;
@@ -807,6 +814,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
     #[inline(always)]
     fn apply_pair(
         fac: &StageFactor<NX, NU, NZ>,
+        f: &SMatrix<f64, NX, NX>,
         r1: &SVector<f64, NX>,
         r2: &SVector<f64, NX>,
     ) -> (SVector<f64, NX>, SVector<f64, NX>) {
@@ -818,13 +826,13 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             return (x, lambda);
         }
         // [[P^, I], [I, -Delta]]^-1 applied to (F^T r1, r2) gives (a, lambda), x = F a.
-        let q1 = mtv(&fac.f, r1);
+        let q1 = mtv(f, r1);
         if fac.zero_delta {
-            (mv(&fac.f, r2), q1 + mv(&fac.a22, r2))
+            (mv(f, r2), q1 + mv(&fac.a22, r2))
         } else {
             let a = mv(&fac.a11, &q1) + mv(&fac.a12, r2);
             let b = mtv(&fac.a12, &q1) + mv(&fac.a22, r2);
-            (mv(&fac.f, &a), b)
+            (mv(f, &a), b)
         }
     }
 
@@ -1084,9 +1092,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         // Forward substitution in elimination order.
         for k in (0..big).rev() {
             let fac = &self.factors[k];
+            let f = &self.inverses[k].f;
+            let j = Self::j_in(&self.arena, self.j_base, k);
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0).into_owned();
-            let (x, lambda) = Self::apply_pair(fac, &r1, &self.bl[k]);
-            let upd = mv_rows(&fac.y, &x, &self.y_live) + jt_mul(fac, &lambda);
+            let (x, lambda) = Self::apply_pair(fac, f, &r1, &self.bl[k]);
+            let upd =
+                mv_rows_t(&fac.yt, &x, &self.y_live) + jt_mul(j, fac.j_minus_identity, &lambda);
             self.bz[k] -= upd;
             let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX).into_owned();
             ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
@@ -1121,6 +1132,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         // Backward substitution.
         for k in 0..big {
             let fac = &self.factors[k];
+            let f = &self.inverses[k].f;
+            let j = Self::j_in(&self.arena, self.j_base, k);
             let x: SVector<f64, NX> = self.bz[k].fixed_rows::<NX>(0).into_owned();
             let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX) - mv(&fac.q_ux, &x);
             if k > 0 {
@@ -1129,9 +1142,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
             self.bz[k].fixed_rows_mut::<NU>(NX).copy_from(&t);
             let z = self.bz[k];
-            let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - mtv(&fac.y, &z);
-            let r2 = self.bl[k] - j_mul(fac, &z);
-            let (xn, lambda) = Self::apply_pair(fac, &r1, &r2);
+            let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - mtv_t(&fac.yt, &z);
+            let r2 = self.bl[k] - j_mul(j, fac.j_minus_identity, &z);
+            let (xn, lambda) = Self::apply_pair(fac, f, &r1, &r2);
             self.bz[k + 1].fixed_rows_mut::<NX>(0).copy_from(&xn);
             self.bl[k] = lambda;
         }
@@ -1319,7 +1332,7 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
         if k < self.stages {
             let e = std::slice::from_raw_parts(a.add(self.e_base + k * NX * NX), NX * NX);
             let inv = &mut *self.inverses.add(k);
-            inv.j_minus_identity = minus_identity_head(&self.j_block(k));
+            inv.j_minus_identity = minus_identity_head(self.j_block(k));
             if same_bits(inv.e_in.as_slice(), e) {
                 inv.ok = true;
             } else {
@@ -1350,22 +1363,22 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
         SMatrix::from_column_slice(self.slice(k * NZ * NZ, NZ * NZ))
     }
 
-    /// X_k. Safety: as [`Self::slice`].
+    /// X_k, in place. Safety: as [`Self::slice`].
     #[inline(always)]
-    unsafe fn x_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
-        SMatrix::from_column_slice(self.slice(self.x_base + k * NZ * NZ, NZ * NZ))
+    unsafe fn x_block(&self, k: usize) -> &SMatrix<f64, NZ, NZ> {
+        block_ref(self.slice(self.x_base + k * NZ * NZ, NZ * NZ))
     }
 
-    /// E_k. Safety: as [`Self::slice`].
+    /// E_k, in place. Safety: as [`Self::slice`].
     #[inline(always)]
-    unsafe fn e_block(&self, k: usize) -> SMatrix<f64, NX, NX> {
-        SMatrix::from_column_slice(self.slice(self.e_base + k * NX * NX, NX * NX))
+    unsafe fn e_block(&self, k: usize) -> &SMatrix<f64, NX, NX> {
+        block_ref(self.slice(self.e_base + k * NX * NX, NX * NX))
     }
 
-    /// J_k. Safety: as [`Self::slice`].
+    /// J_k, in place. Safety: as [`Self::slice`].
     #[inline(always)]
-    unsafe fn j_block(&self, k: usize) -> SMatrix<f64, NX, NZ> {
-        SMatrix::from_column_slice(self.slice(self.j_base + k * NX * NZ, NX * NZ))
+    unsafe fn j_block(&self, k: usize) -> &SMatrix<f64, NX, NZ> {
+        block_ref(self.slice(self.j_base + k * NX * NZ, NX * NZ))
     }
 
     /// E_k^-1 and whether J_k = [-I, G], or `Unsupported` when E_k is singular. Safety: as
@@ -1432,7 +1445,6 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
                 None
             };
             let fac = &mut self.factors[k];
-            fac.j = j;
             fac.j_minus_identity = j_minus_identity;
             let zero_delta = all_zero(self.delta[k].as_slice());
             let fast = zero_delta && fac.j_minus_identity;
@@ -1443,20 +1455,22 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
                     &mut yt,
                     &mut pending,
                     f,
+                    j,
                     &mut q,
-                    prev.as_ref(),
+                    prev,
                     &y_live,
                     &mut inertia,
                 )?;
                 check_excess::<NX>(stop_on_excess, &inertia, negative_path, big - k)?;
                 continue;
             }
-            fac.y = yt.transpose();
+            fac.yt = yt;
             RiccatiKkt::<NX, NU, NZ>::eliminate_pair(
                 fac,
                 &p,
-                &e,
+                e,
                 f,
+                j,
                 &self.delta[k],
                 &mut q,
                 &mut inertia,
@@ -1538,6 +1552,7 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     yt: &mut SMatrix<f64, NX, NZ>,
     pending: &mut SMatrix<f64, NZ, NZ>,
     f: &SMatrix<f64, NX, NX>,
+    j: &SMatrix<f64, NX, NZ>,
     q: &mut SMatrix<f64, NZ, NZ>,
     prev: Option<&SMatrix<f64, NZ, NZ>>,
     y_live: &[bool; NZ],
@@ -1570,7 +1585,7 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
         *oc = acc;
     }
     let y_states_zero = !y_live[..NX].contains(&true);
-    let jc = &fac.j.data.0;
+    let jc = &j.data.0;
     let g: [[f64; NX]; NU] = std::array::from_fn(|c| jc[NX + c]);
     // Q = W~ + [C^, -C^ G] + [C^, -C^ G]^T + [-I, G]^T P^ [-I, G], blockwise; S = P^ + C^_x.
     let mut pg = [[0.0; NX]; NU];
@@ -1620,11 +1635,10 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     mm_acc(&mut pn, &qxu, &gm, -1.0);
     sym_lower(&mut pn);
     p.data.0 = pn;
-    fac.f = *f;
     fac.zero_delta = true;
     fac.lambda_first = false;
     fac.a22.data.0 = phat.map(|col| col.map(|v| -v));
-    fac.y = yt.transpose();
+    fac.yt = *yt;
     fac.quu_l = l;
     fac.quu_d = d;
     fac.q_ux = SMatrix::from_fn(|k, c| qxu[k][c]);
@@ -1671,6 +1685,16 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     Ok(())
 }
 
+/// An R x C column-major block of the arena, viewed in place as a matrix (no copy).
+#[inline(always)]
+fn block_ref<const R: usize, const C: usize>(s: &[f64]) -> &SMatrix<f64, R, C> {
+    assert_eq!(s.len(), R * C);
+    // SAFETY: `SMatrix<f64, R, C>` is `#[repr(C)]` over `ArrayStorage`, itself
+    // `#[repr(transparent)]` over `[[f64; R]; C]` (plus zero-sized markers): R * C
+    // contiguous f64 in column order with f64 alignment, which `s` provides.
+    unsafe { &*(s.as_ptr() as *const SMatrix<f64, R, C>) }
+}
+
 /// a x for a small column-major matrix (C >= 1): column axpys in column order, inlined
 /// into the caller's (baseline or AVX2) copy; nalgebra's generic gemv stayed out of line
 /// and ran in the baseline instruction set.
@@ -1690,22 +1714,40 @@ fn mv<const R: usize, const C: usize>(
     SVector::from(out)
 }
 
-/// [`mv`] for a matrix whose rows outside `live` are zero: those entries of the result are
-/// +0 (the full product gives +-0 there), the others have [`mv`]'s bits.
+/// A x given A^T (`at`, C x R), for an A whose rows outside `live` are zero: those entries
+/// of the result are +0 (the full product gives +-0 there), the others have [`mv`]'s bits
+/// (each a serial sum in column order, read from a contiguous column of A^T).
 #[inline(always)]
-fn mv_rows<const R: usize, const C: usize>(
-    a: &SMatrix<f64, R, C>,
+fn mv_rows_t<const R: usize, const C: usize>(
+    at: &SMatrix<f64, C, R>,
     x: &SVector<f64, C>,
     live: &[bool; R],
 ) -> SVector<f64, R> {
-    let cols = &a.data.0;
+    let cols = &at.data.0;
     let mut out = [0.0; R];
     for (r, o) in out.iter_mut().enumerate().filter(|(r, _)| live[*r]) {
-        let mut acc = cols[0][r] * x[0];
-        for (col, &xc) in cols.iter().zip(x.as_slice()).skip(1) {
-            acc += col[r] * xc;
+        let row = &cols[r];
+        let mut acc = row[0] * x[0];
+        for (&a, &xc) in row.iter().zip(x.as_slice()).skip(1) {
+            acc += a * xc;
         }
         *o = acc;
+    }
+    SVector::from(out)
+}
+
+/// A^T x given A^T (`at`, C x R) with [`mtv`]'s bits: each entry is [`nadot`] of a column
+/// of A, gathered from a row of A^T.
+#[inline(always)]
+fn mtv_t<const R: usize, const C: usize>(
+    at: &SMatrix<f64, C, R>,
+    x: &SVector<f64, R>,
+) -> SVector<f64, C> {
+    let cols = &at.data.0;
+    let mut out = [0.0; C];
+    for (c, o) in out.iter_mut().enumerate() {
+        let col: [f64; R] = std::array::from_fn(|i| cols[i][c]);
+        *o = nadot(&col, &x.data.0[0]);
     }
     SVector::from(out)
 }
@@ -1713,14 +1755,15 @@ fn mv_rows<const R: usize, const C: usize>(
 /// J_k z for the stage's dynamics Jacobian; with J = [-I, G] it is -x + G u, which has the
 /// bits of the full product [`mv`] (its zero terms only add +-0) up to the sign of a zero.
 #[inline(always)]
-fn j_mul<const NX: usize, const NU: usize, const NZ: usize>(
-    fac: &StageFactor<NX, NU, NZ>,
+fn j_mul<const NX: usize, const NZ: usize>(
+    j: &SMatrix<f64, NX, NZ>,
+    minus_identity: bool,
     z: &SVector<f64, NZ>,
 ) -> SVector<f64, NX> {
-    if !fac.j_minus_identity {
-        return mv(&fac.j, z);
+    if !minus_identity {
+        return mv(j, z);
     }
-    let cols = &fac.j.data.0;
+    let cols = &j.data.0;
     let mut out: [f64; NX] = std::array::from_fn(|r| -z[r]);
     for (col, &u) in cols[NX..].iter().zip(&z.as_slice()[NX..]) {
         for (o, &g) in out.iter_mut().zip(col) {
@@ -1733,14 +1776,15 @@ fn j_mul<const NX: usize, const NU: usize, const NZ: usize>(
 /// J_k^T lambda; with J = [-I, G] it is (-lambda, G^T lambda), the bits of [`mtv`] up to
 /// the sign of a zero.
 #[inline(always)]
-fn jt_mul<const NX: usize, const NU: usize, const NZ: usize>(
-    fac: &StageFactor<NX, NU, NZ>,
+fn jt_mul<const NX: usize, const NZ: usize>(
+    j: &SMatrix<f64, NX, NZ>,
+    minus_identity: bool,
     lambda: &SVector<f64, NX>,
 ) -> SVector<f64, NZ> {
-    if !fac.j_minus_identity {
-        return mtv(&fac.j, lambda);
+    if !minus_identity {
+        return mtv(j, lambda);
     }
-    let cols = &fac.j.data.0;
+    let cols = &j.data.0;
     let mut out = [0.0; NZ];
     for (o, &l) in out.iter_mut().zip(lambda.as_slice()) {
         *o = -l;
@@ -2202,27 +2246,30 @@ mod tests {
                 .all(|(x, y)| x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0))
         }
         for seed in [3, 11, 99] {
-            let mut fac = StageFactor::<9, 3, 12> {
-                j: scrambled(seed),
-                ..Default::default()
-            };
+            let mut j: SMatrix<f64, 9, 12> = scrambled(seed);
             for c in 0..9 {
                 for r in 0..9 {
-                    fac.j[(r, c)] = if r == c { -1.0 } else { 0.0 };
+                    j[(r, c)] = if r == c { -1.0 } else { 0.0 };
                 }
             }
-            fac.j_minus_identity = minus_identity_head(&fac.j);
-            assert!(fac.j_minus_identity);
+            let mut minus_identity = minus_identity_head(&j);
+            assert!(minus_identity);
             let z: SVector<f64, 12> = scrambled(seed + 1);
             let lambda: SVector<f64, 9> = scrambled(seed + 2);
-            assert!(same_value(&j_mul(&fac, &z), &(fac.j * z)));
-            assert!(same_value(&jt_mul(&fac, &lambda), &fac.j.tr_mul(&lambda)));
+            assert!(same_value(&j_mul(&j, minus_identity, &z), &(j * z)));
+            assert!(same_value(
+                &jt_mul(&j, minus_identity, &lambda),
+                &j.tr_mul(&lambda)
+            ));
             // Anything else goes through the general products.
-            fac.j[(4, 4)] = -0.5;
-            fac.j_minus_identity = minus_identity_head(&fac.j);
-            assert!(!fac.j_minus_identity);
-            assert!(same(&j_mul(&fac, &z), &(fac.j * z)));
-            assert!(same(&jt_mul(&fac, &lambda), &fac.j.tr_mul(&lambda)));
+            j[(4, 4)] = -0.5;
+            minus_identity = minus_identity_head(&j);
+            assert!(!minus_identity);
+            assert!(same(&j_mul(&j, minus_identity, &z), &(j * z)));
+            assert!(same(
+                &jt_mul(&j, minus_identity, &lambda),
+                &j.tr_mul(&lambda)
+            ));
 
             let live = [
                 false, true, false, false, false, false, false, true, false, true, true, true,
@@ -2234,7 +2281,10 @@ mod tests {
                 }
             }
             let x: SVector<f64, 9> = scrambled(seed + 4);
-            assert!(same_value(&mv_rows(&y, &x, &live), &(y * x)));
+            let w: SVector<f64, 12> = scrambled(seed + 5);
+            let yt = y.transpose();
+            assert!(same_value(&mv_rows_t(&yt, &x, &live), &(y * x)));
+            assert!(same(&mtv_t(&yt, &w), &y.tr_mul(&w)));
         }
     }
 

@@ -112,6 +112,8 @@ struct UnitPair {
 #[derive(Debug, Clone)]
 struct StageInverse<const NX: usize> {
     f: SMatrix<f64, NX, NX>,
+    /// F^T (the sweep's products read F's rows as contiguous columns).
+    ft: SMatrix<f64, NX, NX>,
     /// The E that `f` inverts (NaN until the first success).
     e_in: SMatrix<f64, NX, NX>,
     /// Whether E_k of the current assembly is invertible (`f` is its inverse).
@@ -124,6 +126,7 @@ impl<const NX: usize> Default for StageInverse<NX> {
     fn default() -> Self {
         Self {
             f: SMatrix::zeros(),
+            ft: SMatrix::zeros(),
             e_in: SMatrix::repeat(f64::NAN),
             ok: false,
             j_minus_identity: false,
@@ -1339,6 +1342,7 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
                 let e = SMatrix::<f64, NX, NX>::from_column_slice(e);
                 if let Some(f) = invert_unit_tail(&e) {
                     inv.f = f;
+                    inv.ft = f.transpose();
                     inv.e_in = e;
                     inv.ok = true;
                 } else {
@@ -1357,10 +1361,10 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
         std::slice::from_raw_parts(self.arena.add(o), len)
     }
 
-    /// W_k (both triangles, see [`Self::unit`]). Safety: as [`Self::slice`].
+    /// W_k (both triangles, see [`Self::unit`]), in place. Safety: as [`Self::slice`].
     #[inline(always)]
-    unsafe fn w_block(&self, k: usize) -> SMatrix<f64, NZ, NZ> {
-        SMatrix::from_column_slice(self.slice(k * NZ * NZ, NZ * NZ))
+    unsafe fn w_block(&self, k: usize) -> &SMatrix<f64, NZ, NZ> {
+        block_ref(self.slice(k * NZ * NZ, NZ * NZ))
     }
 
     /// X_k, in place. Safety: as [`Self::slice`].
@@ -1384,10 +1388,10 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
     /// E_k^-1 and whether J_k = [-I, G], or `Unsupported` when E_k is singular. Safety: as
     /// [`Self::slice`].
     #[inline(always)]
-    unsafe fn inverse(&self, k: usize) -> Result<(&SMatrix<f64, NX, NX>, bool), KktError> {
+    unsafe fn inverse(&self, k: usize) -> Result<&StageInverse<NX>, KktError> {
         let inv = &*self.inverses.add(k);
         if inv.ok {
-            Ok((&inv.f, inv.j_minus_identity))
+            Ok(inv)
         } else {
             Err(KktError::Unsupported)
         }
@@ -1434,9 +1438,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
         let mut pending: SMatrix<f64, NZ, NZ> = SMatrix::zeros();
         for k in (0..big).rev() {
             ready(k);
-            let (f, j_minus_identity) = unsafe { asm.inverse(k) }?;
-            let mut q = unsafe { asm.w_block(k) };
-            q -= pending;
+            let inv = unsafe { asm.inverse(k) }?;
+            let (f, j_minus_identity) = (&inv.f, inv.j_minus_identity);
+            let mut q = unsafe { asm.w_block(k) } - pending;
             let e = unsafe { asm.e_block(k) };
             let j = unsafe { asm.j_block(k) };
             let prev = if k > 0 {
@@ -1455,6 +1459,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
                     &mut yt,
                     &mut pending,
                     f,
+                    &inv.ft,
                     j,
                     &mut q,
                     prev,
@@ -1552,6 +1557,7 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     yt: &mut SMatrix<f64, NX, NZ>,
     pending: &mut SMatrix<f64, NZ, NZ>,
     f: &SMatrix<f64, NX, NX>,
+    ft: &SMatrix<f64, NX, NX>,
     j: &SMatrix<f64, NX, NZ>,
     q: &mut SMatrix<f64, NZ, NZ>,
     prev: Option<&SMatrix<f64, NZ, NZ>>,
@@ -1559,12 +1565,12 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     inertia: &mut Inertia,
 ) -> Result<(), KktError> {
     let fc = &f.data.0;
-    let ft: [[f64; NX]; NX] = std::array::from_fn(|c| std::array::from_fn(|r| fc[r][c]));
+    let ft = &ft.data.0;
     // P^ = F^T (P F): its pair has inertia (NX, NX).
     let mut pf = [[0.0; NX]; NX];
     mm_acc(&mut pf, &p.data.0, fc, 1.0);
     let mut phat = [[0.0; NX]; NX];
-    mm_acc(&mut phat, &ft, &pf, 1.0);
+    mm_acc(&mut phat, ft, &pf, 1.0);
     sym_lower(&mut phat);
     inertia.positive += NX;
     inertia.negative += NX;

@@ -1637,10 +1637,13 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
         ldlt_solve_vec(&l, &d, &mut v);
         *gc = v.data.0[0];
     }
-    let mut pn: [[f64; NX]; NX] = std::array::from_fn(|c| std::array::from_fn(|r| qc[c][r]));
-    mm_acc(&mut pn, &qxu, &gm, -1.0);
-    sym_lower(&mut pn);
-    p.data.0 = pn;
+    // Written in place (no temporaries to copy: these blocks are the sweep's hot memory).
+    let pc = &mut p.data.0;
+    for (pcol, qcol) in pc.iter_mut().zip(qc.iter()) {
+        pcol.copy_from_slice(&qcol[..NX]);
+    }
+    mm_acc(pc, &qxu, &gm, -1.0);
+    sym_lower(pc);
     fac.zero_delta = true;
     fac.lambda_first = false;
     fac.a22.data.0 = phat.map(|col| col.map(|v| -v));
@@ -1655,15 +1658,26 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     // R = X_{k-1}[u rows]^T, Y_{k-1}^T = X_{k-1}[x rows] - g^T R^T and
     // W_{k-1} -= R Q_uu^-1 R^T.
     let xcc = &xc.data.0;
-    let rc: [[f64; NZ]; NU] = std::array::from_fn(|k| std::array::from_fn(|i| xcc[i][NX + k]));
+    for (k, rcol) in fac.r.data.0.iter_mut().enumerate() {
+        for (o, xcol) in rcol.iter_mut().zip(xcc.iter()) {
+            *o = xcol[NX + k];
+        }
+    }
+    let rc = &fac.r.data.0;
     // R^T as columns (row i of R per column), for g^T R^T and Q_uu^-1 R^T.
     let rtc: [[f64; NU]; NZ] = std::array::from_fn(|i| std::array::from_fn(|k| rc[k][i]));
     let gt: [[f64; NX]; NU] = std::array::from_fn(|k| std::array::from_fn(|j| gm[j][k]));
-    let mut ytn: [[f64; NX]; NZ] = std::array::from_fn(|i| std::array::from_fn(|j| xcc[i][j]));
+    let ytn = &mut yt.data.0;
+    for (ycol, xcol) in ytn.iter_mut().zip(xcc.iter()) {
+        ycol.copy_from_slice(&xcol[..NX]);
+    }
     // Only the live columns of X_{k-1} (hence of R^T) can be nonzero: the products below
     // run over them alone. Elsewhere they would add exact zeros (+0 on a +0 start, so the
     // bits, signed zeros included, are those of the full products).
-    let mut pd = [[0.0; NZ]; NZ];
+    let pd = &mut pending.data.0;
+    for col in pd.iter_mut() {
+        *col = [0.0; NZ];
+    }
     for (i, _) in y_live.iter().enumerate().filter(|(_, &l)| l) {
         let mut acc = ytn[i];
         for (gk, &r) in gt.iter().zip(&rtc[i]) {
@@ -1684,10 +1698,7 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
         }
         pd[i] = col;
     }
-    yt.data.0 = ytn;
-    sym_lower(&mut pd);
-    pending.data.0 = pd;
-    fac.r.data.0 = rc;
+    sym_lower(pd);
     Ok(())
 }
 

@@ -673,8 +673,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         SMatrix::from_column_slice(&self.arena[o..o + NX * NX])
     }
 
-    /// Eliminates the pair (x_{k+1}, lambda_k) (factor `fac` holds J, Y on entry) and
-    /// returns z_k's block after the update, Q = W~ - C M^-1 C^T.
+    /// Eliminates the pair (x_{k+1}, lambda_k) (`fac` holds Y^T on entry; E_k, F = E_k^-1
+    /// and J_k are read in place) and returns z_k's block after the update,
+    /// Q = W~ - C M^-1 C^T.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn eliminate_pair(

@@ -1,6 +1,9 @@
 //! One KKT factorization and one solve of the oval NLP (N = 100, implicit Euler) at the
 //! reference optimum, for the general sparse LDL^T and the Riccati backend side by side,
 //! and the Riccati factorization pipelined over a helper thread (`threads = 2`).
+//! `riccati/factorize_new_jacobian` alternates two Jacobians (the second's entries other
+//! than 0 and +-1 scaled by 1 + 1e-12), so every factorization inverts all E_k anew, as
+//! the first factorization of each solver iteration does (the others reuse E_k^-1).
 
 use bench::OvalKkt;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -34,6 +37,21 @@ fn kkt(c: &mut Criterion) {
     });
     g.bench_function("riccati/factorize", |b| {
         b.iter(|| ric.factorize(black_box(&values0)).expect("factorizes"))
+    });
+    let mut sys1 = OvalKkt::new(0.0);
+    for v in sys1.jac.iter_mut() {
+        if *v != 0.0 && v.abs() != 1.0 {
+            *v *= 1.0 + 1e-12;
+        }
+    }
+    let values1 = sys1.values();
+    let mut flip = false;
+    g.bench_function("riccati/factorize_new_jacobian", |b| {
+        b.iter(|| {
+            flip = !flip;
+            let v = if flip { &values1 } else { &values0 };
+            ric.factorize(black_box(v)).expect("factorizes")
+        })
     });
     g.bench_function("riccati/factorize_regularized", |b| {
         b.iter(|| ric.factorize(black_box(&values)).expect("factorizes"))

@@ -1987,21 +1987,16 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     if !scale.is_finite() {
         return None;
     }
-    // diag(A, I) and I as W x W rows: two 4-wide vectors per row operation.
-    let mut a = [[0.0; W]; W];
-    let mut ai = [[0.0; W]; W];
-    for (r, (row, irow)) in a.iter_mut().zip(ai.iter_mut()).enumerate() {
-        if r < k {
-            for (c, v) in row.iter_mut().take(k).enumerate() {
-                *v = e[(r, c)];
-            }
-        } else {
-            row[r] = 1.0;
-        }
-        irow[r] = 1.0;
-    }
-    gauss_jordan(&mut a, &mut ai, 1e-13 * scale)?;
-    let ai = &ai[..k];
+    // The implicit-Euler case (k = 7: s and t are unit) eliminates its 7 rows alone; the
+    // identity row of the 8 x 8 embedding only ever subtracted +0 from them (same bits).
+    let (rows7, rows8);
+    let ai: &[[f64; W]] = if k == 7 {
+        rows7 = leading_inverse::<D, 7, W>(e, k, 1e-13 * scale)?;
+        &rows7
+    } else {
+        rows8 = leading_inverse::<D, W, W>(e, k, 1e-13 * scale)?;
+        &rows8[..k]
+    };
     let mut out = SMatrix::<f64, D, D>::zeros();
     for (r, row) in ai.iter().enumerate() {
         for c in 0..k {
@@ -2019,6 +2014,30 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
         out[(r, r)] = 1.0;
     }
     Some(out)
+}
+
+/// The first K (>= k) rows of diag(A, I)^-1 for E's leading k x k block A, each padded to
+/// W entries (whole 4-wide vectors per row operation); `None` as [`gauss_jordan`].
+#[inline(always)]
+fn leading_inverse<const D: usize, const K: usize, const W: usize>(
+    e: &SMatrix<f64, D, D>,
+    k: usize,
+    tiny: f64,
+) -> Option<[[f64; W]; K]> {
+    let mut a = [[0.0; W]; K];
+    let mut ai = [[0.0; W]; K];
+    for (r, (row, irow)) in a.iter_mut().zip(ai.iter_mut()).enumerate() {
+        if r < k {
+            for (c, v) in row.iter_mut().take(k).enumerate() {
+                *v = e[(r, c)];
+            }
+        } else {
+            row[r] = 1.0;
+        }
+        irow[r] = 1.0;
+    }
+    gauss_jordan(&mut a, &mut ai, tiny)?;
+    Some(ai)
 }
 
 /// Gauss-Jordan elimination with partial pivoting on the K augmented rows [A | B]: the
@@ -2303,6 +2322,28 @@ mod tests {
             let yt = y.transpose();
             assert!(same_value(&mv_rows_t(&yt, &x, &live), &(y * x)));
             assert!(same(&mtv_t(&yt, &w), &y.tr_mul(&w)));
+        }
+    }
+
+    /// Eliminating only A's 7 rows gives the bits of the 8 x 8 diag(A, I) elimination.
+    #[test]
+    fn seven_row_elimination_has_the_embeddings_bits() {
+        let mut cases = vec![unit_tail_e()];
+        for seed in [5, 17, 23] {
+            let mut e: SMatrix<f64, 9, 9> = scrambled(seed);
+            for c in 7..9 {
+                for r in 0..9 {
+                    e[(r, c)] = if r == c { 1.0 } else { 0.0 };
+                }
+            }
+            cases.push(e);
+        }
+        for e in cases {
+            let seven = leading_inverse::<9, 7, 8>(&e, 7, 0.0).expect("nonsingular");
+            let eight = leading_inverse::<9, 8, 8>(&e, 7, 0.0).expect("nonsingular");
+            for (a, b) in seven.iter().zip(&eight[..7]) {
+                assert!(same_bits(a, b), "{a:?} vs {b:?}");
+            }
         }
     }
 

@@ -137,10 +137,8 @@ impl<const NX: usize> Default for StageInverse<NX> {
 /// Factors of one stage, kept for the solves.
 #[derive(Debug, Clone)]
 struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
-    /// J_k = [-I, G] (implicit Euler): the solves multiply by G alone. (J_k itself stays in
-    /// the arena and F = E_k^-1 in the stage's [`StageInverse`] until the next assembly;
-    /// the solves read them there.)
-    j_minus_identity: bool,
+    // J_k stays in the arena, and F = E_k^-1 and whether J_k = [-I, G] in the stage's
+    // [`StageInverse`], until the next assembly; the solves read them there.
     /// Delta_k = 0: [[P^, I], [I, 0]]^-1 = [[0, I], [I, -P^]] and a11, a12 are unused.
     zero_delta: bool,
     /// Blocks of [[P^, I], [I, -Delta]]^-1 = [[a11, a12], [a12^T, a22]].
@@ -169,7 +167,6 @@ struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
 impl<const NX: usize, const NU: usize, const NZ: usize> Default for StageFactor<NX, NU, NZ> {
     fn default() -> Self {
         Self {
-            j_minus_identity: false,
             zero_delta: true,
             lambda_first: false,
             sx_l: SMatrix::zeros(),
@@ -673,8 +670,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         SMatrix::from_column_slice(&self.arena[o..o + NX * NX])
     }
 
-    /// Eliminates the pair (x_{k+1}, lambda_k) (`fac` holds Y^T on entry; E_k, F = E_k^-1
-    /// and J_k are read in place) and returns z_k's block after the update,
+    /// Eliminates the pair (x_{k+1}, lambda_k) (`fac` holds Y^T on entry; E_k, J_k and the
+    /// stage inverse `inv` are read in place) and returns z_k's block after the update,
     /// Q = W~ - C M^-1 C^T.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
@@ -682,12 +679,13 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         fac: &mut StageFactor<NX, NU, NZ>,
         p: &SMatrix<f64, NX, NX>,
         e: &SMatrix<f64, NX, NX>,
-        f: &SMatrix<f64, NX, NX>,
+        inv: &StageInverse<NX>,
         j: &SMatrix<f64, NX, NZ>,
         delta: &SVector<f64, NX>,
         q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
     ) -> Result<(), KktError> {
+        let f = &inv.f;
         let mut phat = mul_tn(f, &mul_nn(p, f));
         symmetrize(&mut phat);
         // C^ = Y F (Y is zero outside the few rows of z_k that couple to x_{k+1}).
@@ -700,7 +698,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             inertia.positive += NX;
             inertia.negative += NX;
             fac.a22 = -phat;
-            if fac.j_minus_identity {
+            if inv.j_minus_identity {
                 // J = [-I, G]: Q = W~ - C^J - (C^J)^T + J^T P^ J written blockwise.
                 let g: SMatrix<f64, NX, NU> = j.fixed_view::<NX, NU>(0, NX).into_owned();
                 let cg = mul_nn(&fac.chat, &g);
@@ -1095,13 +1093,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
         // Forward substitution in elimination order.
         for k in (0..big).rev() {
-            let fac = &self.factors[k];
-            let f = &self.inverses[k].f;
+            let (fac, inv) = (&self.factors[k], &self.inverses[k]);
             let j = Self::j_in(&self.arena, self.j_base, k);
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0).into_owned();
-            let (x, lambda) = Self::apply_pair(fac, f, &r1, &self.bl[k]);
+            let (x, lambda) = Self::apply_pair(fac, &inv.f, &r1, &self.bl[k]);
             let upd =
-                mv_rows_t(&fac.yt, &x, &self.y_live) + jt_mul(j, fac.j_minus_identity, &lambda);
+                mv_rows_t(&fac.yt, &x, &self.y_live) + jt_mul(j, inv.j_minus_identity, &lambda);
             self.bz[k] -= upd;
             let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX).into_owned();
             ldlt_solve_vec(&fac.quu_l, &fac.quu_d, &mut t);
@@ -1135,8 +1132,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
         // Backward substitution.
         for k in 0..big {
-            let fac = &self.factors[k];
-            let f = &self.inverses[k].f;
+            let (fac, inv) = (&self.factors[k], &self.inverses[k]);
             let j = Self::j_in(&self.arena, self.j_base, k);
             let x: SVector<f64, NX> = self.bz[k].fixed_rows::<NX>(0).into_owned();
             let mut t: SVector<f64, NU> = self.bz[k].fixed_rows::<NU>(NX) - mv(&fac.q_ux, &x);
@@ -1147,8 +1143,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             self.bz[k].fixed_rows_mut::<NU>(NX).copy_from(&t);
             let z = self.bz[k];
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - mtv_t(&fac.yt, &z);
-            let r2 = self.bl[k] - j_mul(j, fac.j_minus_identity, &z);
-            let (xn, lambda) = Self::apply_pair(fac, f, &r1, &r2);
+            let r2 = self.bl[k] - j_mul(j, inv.j_minus_identity, &z);
+            let (xn, lambda) = Self::apply_pair(fac, &inv.f, &r1, &r2);
             self.bz[k + 1].fixed_rows_mut::<NX>(0).copy_from(&xn);
             self.bl[k] = lambda;
         }
@@ -1440,7 +1436,6 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
         for k in (0..big).rev() {
             ready(k);
             let inv = unsafe { asm.inverse(k) }?;
-            let (f, j_minus_identity) = (&inv.f, inv.j_minus_identity);
             let mut q = unsafe { asm.w_block(k) } - pending;
             let e = unsafe { asm.e_block(k) };
             let j = unsafe { asm.j_block(k) };
@@ -1450,17 +1445,15 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
                 None
             };
             let fac = &mut self.factors[k];
-            fac.j_minus_identity = j_minus_identity;
             let zero_delta = all_zero(self.delta[k].as_slice());
-            let fast = zero_delta && fac.j_minus_identity;
+            let fast = zero_delta && inv.j_minus_identity;
             if fast {
                 fast_stage(
                     fac,
                     &mut p,
                     &mut yt,
                     &mut pending,
-                    f,
-                    &inv.ft,
+                    inv,
                     j,
                     &mut q,
                     prev,
@@ -1475,7 +1468,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
                 fac,
                 &p,
                 e,
-                f,
+                inv,
                 j,
                 &self.delta[k],
                 &mut q,
@@ -1557,16 +1550,15 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     p: &mut SMatrix<f64, NX, NX>,
     yt: &mut SMatrix<f64, NX, NZ>,
     pending: &mut SMatrix<f64, NZ, NZ>,
-    f: &SMatrix<f64, NX, NX>,
-    ft: &SMatrix<f64, NX, NX>,
+    inv: &StageInverse<NX>,
     j: &SMatrix<f64, NX, NZ>,
     q: &mut SMatrix<f64, NZ, NZ>,
     prev: Option<&SMatrix<f64, NZ, NZ>>,
     y_live: &[bool; NZ],
     inertia: &mut Inertia,
 ) -> Result<(), KktError> {
-    let fc = &f.data.0;
-    let ft = &ft.data.0;
+    let fc = &inv.f.data.0;
+    let ft = &inv.ft.data.0;
     // P^ = F^T (P F): its pair has inertia (NX, NX).
     let mut pf = [[0.0; NX]; NX];
     mm_acc(&mut pf, &p.data.0, fc, 1.0);
@@ -1989,14 +1981,21 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     }
     // The implicit-Euler case (k = 7: s and t are unit) eliminates its 7 rows alone; the
     // identity row of the 8 x 8 embedding only ever subtracted +0 from them (same bits).
-    let (rows7, rows8);
-    let ai: &[[f64; W]] = if k == 7 {
-        rows7 = leading_inverse::<D, 7, W>(e, k, 1e-13 * scale)?;
-        &rows7
+    let tiny = 1e-13 * scale;
+    Some(if k == 7 {
+        unit_tail_inverse(e, &leading_inverse::<D, 7, W>(e, k, tiny)?)
     } else {
-        rows8 = leading_inverse::<D, W, W>(e, k, 1e-13 * scale)?;
-        &rows8[..k]
-    };
+        unit_tail_inverse(e, &leading_inverse::<D, W, W>(e, k, tiny)?[..k])
+    })
+}
+
+/// [[A^-1, 0], [-B A^-1, I]] from the k rows of A^-1 (`ai`, padded rows) and E's B.
+#[inline(always)]
+fn unit_tail_inverse<const D: usize, const W: usize>(
+    e: &SMatrix<f64, D, D>,
+    ai: &[[f64; W]],
+) -> SMatrix<f64, D, D> {
+    let k = ai.len();
     let mut out = SMatrix::<f64, D, D>::zeros();
     for (r, row) in ai.iter().enumerate() {
         for c in 0..k {
@@ -2013,7 +2012,7 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
         }
         out[(r, r)] = 1.0;
     }
-    Some(out)
+    out
 }
 
 /// The first K (>= k) rows of diag(A, I)^-1 for E's leading k x k block A, each padded to

@@ -3,7 +3,10 @@
 //! and the Riccati factorization pipelined over a helper thread (`threads = 2`).
 //! `riccati/factorize_new_jacobian` alternates two Jacobians (the second's entries other
 //! than 0 and +-1 scaled by 1 + 1e-12), so every factorization inverts all E_k anew, as
-//! the first factorization of each solver iteration does (the others reuse E_k^-1).
+//! the first factorization of each solver iteration does (the others reuse E_k^-1);
+//! `riccati/factorize_pipelined_new_jacobian` is the same over two threads, and
+//! `riccati/factorize_new_jacobian_cold` starts each factorization with cold caches (4 MB
+//! written first, untimed), as in a solve, where evaluation and line search run in between.
 
 use bench::OvalKkt;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -53,6 +56,24 @@ fn kkt(c: &mut Criterion) {
             ric.factorize(black_box(v)).expect("factorizes")
         })
     });
+    // As in a solve, where the evaluation, the line search and the back-solves run between
+    // two factorizations: 4 MB (more than this VM's 1 MB L2) are written first, outside the
+    // timing, so the blocks, factors and index lists come from L3 or memory.
+    let mut evict = vec![0u8; 4 << 20];
+    g.bench_function("riccati/factorize_new_jacobian_cold", |b| {
+        b.iter_batched(
+            || {
+                flip = !flip;
+                evict.iter_mut().for_each(|v| *v = v.wrapping_add(1));
+                flip
+            },
+            |f| {
+                let v = if f { &values1 } else { &values0 };
+                ric.factorize(black_box(v)).expect("factorizes")
+            },
+            criterion::BatchSize::PerIteration,
+        )
+    });
     g.bench_function("riccati/factorize_regularized", |b| {
         b.iter(|| ric.factorize(black_box(&values)).expect("factorizes"))
     });
@@ -60,6 +81,13 @@ fn kkt(c: &mut Criterion) {
     piped.set_pipelined(true).expect("helper thread starts");
     g.bench_function("riccati/factorize_pipelined", |b| {
         b.iter(|| piped.factorize(black_box(&values0)).expect("factorizes"))
+    });
+    g.bench_function("riccati/factorize_pipelined_new_jacobian", |b| {
+        b.iter(|| {
+            flip = !flip;
+            let v = if flip { &values1 } else { &values0 };
+            piped.factorize(black_box(v)).expect("factorizes")
+        })
     });
     drop(piped);
     ric.factorize(&values0).expect("factorizes");

@@ -157,7 +157,32 @@ pub enum Invalid {
     /// Unknown solver status code.
     #[error("unknown solver status code {0}")]
     Status(u32),
+    /// An entry of a plan's node is NaN or infinite.
+    #[error("plan node {node}: {field} is not finite")]
+    NodeNonFinite {
+        /// Node index.
+        node: usize,
+        /// State or control name.
+        field: &'static str,
+    },
+    /// A state of a plan's node is outside its physical range.
+    #[error("plan node {node}: {field} = {value} outside the physical range [{min}, {max}]")]
+    NodeRange {
+        /// Node index.
+        node: usize,
+        /// State name.
+        field: &'static str,
+        /// Offending value.
+        value: f64,
+        /// Lower limit.
+        min: f64,
+        /// Upper limit.
+        max: f64,
+    },
 }
+
+/// Names of the control entries (order of `iu`).
+pub const CONTROL_NAMES: [&str; NU] = ["delta", "T_comb", "T_bf"];
 
 /// Physical ranges of the state entries (order of `ix`), used to drop absurd states.
 pub const STATE_RANGES: [(&str, f64, f64); NX] = [
@@ -228,7 +253,9 @@ impl VehicleState {
 }
 
 impl Trajectory {
-    /// Checks version, road, status code and that every number is finite; allocates nothing.
+    /// Checks version, road, status code, that every number is finite and every state
+    /// (the plan's nodes and `x_from`) within [`STATE_RANGES`]; errors name the node and
+    /// entry. Allocates nothing.
     pub fn validate(&self, road: RoadId) -> Result<(), Invalid> {
         check_header(self.version, self.road_id, road)?;
         if status_name(self.status).is_none() {
@@ -252,11 +279,32 @@ impl Trajectory {
                 max: 100.0,
             });
         }
-        if self.x.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(Invalid::NonFinite { field: "x" });
+        check_state(&self.x_from)?;
+        for (node, x) in self.x.iter().enumerate() {
+            check_state(x).map_err(|e| match e {
+                Invalid::NonFinite { field } => Invalid::NodeNonFinite { node, field },
+                Invalid::Range {
+                    field,
+                    value,
+                    min,
+                    max,
+                } => Invalid::NodeRange {
+                    node,
+                    field,
+                    value,
+                    min,
+                    max,
+                },
+                other => other,
+            })?;
         }
-        if self.u.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(Invalid::NonFinite { field: "u" });
+        for (node, u) in self.u.iter().enumerate() {
+            if let Some(i) = u.iter().position(|v| !v.is_finite()) {
+                return Err(Invalid::NodeNonFinite {
+                    node,
+                    field: CONTROL_NAMES[i],
+                });
+            }
         }
         Ok(())
     }
@@ -290,6 +338,78 @@ mod tests {
         assert!(matches!(
             m.validate(7),
             Err(Invalid::Range { field: "V", .. })
+        ));
+    }
+
+    fn good_plan() -> Box<Trajectory> {
+        let x = [0.0, 15.0, 0.0, 15.0, 0.0, 0.0, 0.0, 3.0, 1.0];
+        Box::new(Trajectory {
+            version: MSG_VERSION,
+            status: status_code(Status::Optimal),
+            seq: 1,
+            road_id: 7,
+            stamp_ns: 0,
+            from_state_seq: 1,
+            from_state_stamp_ns: 0,
+            iterations: 40,
+            warm_started: 0,
+            solve_time_s: 0.02,
+            s_origin: 100.0,
+            t_origin: 5.0,
+            ds: 2.5,
+            x_from: x,
+            x: [x; HORIZON_N + 1],
+            u: [[0.0; NU]; HORIZON_N],
+        })
+    }
+
+    #[test]
+    fn plan_validation_names_node_and_entry() {
+        assert_eq!(good_plan().validate(7), Ok(()));
+        let mut m = good_plan();
+        m.status = 999;
+        assert_eq!(m.validate(7), Err(Invalid::Status(999)));
+        let mut m = good_plan();
+        m.x[17][ix::BETA] = f64::NAN;
+        assert_eq!(
+            m.validate(7),
+            Err(Invalid::NodeNonFinite {
+                node: 17,
+                field: "beta"
+            })
+        );
+        let mut m = good_plan();
+        m.x[42][ix::V] = 500.0;
+        let e = m.validate(7).unwrap_err();
+        assert!(matches!(
+            e,
+            Invalid::NodeRange {
+                node: 42,
+                field: "V",
+                ..
+            }
+        ));
+        assert!(e.to_string().contains("plan node 42: V = 500"), "{e}");
+        let mut m = good_plan();
+        m.u[99][2] = f64::INFINITY;
+        assert_eq!(
+            m.validate(7),
+            Err(Invalid::NodeNonFinite {
+                node: 99,
+                field: "T_bf"
+            })
+        );
+        let mut m = good_plan();
+        m.x_from[ix::E] = 50.0;
+        assert!(matches!(
+            m.validate(7),
+            Err(Invalid::Range { field: "e", .. })
+        ));
+        let mut m = good_plan();
+        m.ds = 0.0;
+        assert!(matches!(
+            m.validate(7),
+            Err(Invalid::Range { field: "ds", .. })
         ));
     }
 

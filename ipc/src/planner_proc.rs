@@ -97,8 +97,10 @@ impl Rejected {
         match e {
             Invalid::Version { .. } => self.version += 1,
             Invalid::Road { .. } => self.road += 1,
-            Invalid::NonFinite { .. } => self.non_finite += 1,
-            Invalid::Range { .. } | Invalid::Status(_) => self.range += 1,
+            Invalid::NonFinite { .. } | Invalid::NodeNonFinite { .. } => self.non_finite += 1,
+            Invalid::Range { .. } | Invalid::NodeRange { .. } | Invalid::Status(_) => {
+                self.range += 1
+            }
         }
     }
 
@@ -155,6 +157,17 @@ impl Cycle {
             let j = (((k as f64 * ds + shift) / ds).floor() as usize).min(HORIZON_N - 1);
             self.guess_u[k] = us[j];
         }
+    }
+}
+
+/// `x` moved at least 1 mm (or m/s) inside [lo, hi]; the midpoint when the interval is
+/// narrower than that (never panics, unlike `clamp` on crossed bounds).
+fn nudge_into(x: f64, lo: f64, hi: f64) -> f64 {
+    const IN: f64 = 1e-3;
+    if hi - lo > 2.0 * IN {
+        x.max(lo + IN).min(hi - IN)
+    } else {
+        0.5 * (lo + hi)
     }
 }
 
@@ -287,8 +300,8 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         let mut x0 = state.x;
         x0[ix::S] = 0.0;
         x0[ix::T] = 0.0;
-        x0[ix::V] = x0[ix::V].clamp(v_min + 1e-3, v_max - 1e-3);
-        x0[ix::E] = x0[ix::E].clamp(cy.road.e_min[0] + 1e-3, cy.road.e_max[0] - 1e-3);
+        x0[ix::V] = nudge_into(x0[ix::V], v_min, v_max);
+        x0[ix::E] = nudge_into(x0[ix::E], cy.road.e_min[0], cy.road.e_max[0]);
         x0[ix::VWR] = x0[ix::VWR].max(1e-3);
         let shift = s_track - cy.prev_origin;
         let sound = args.warm_start == "on"

@@ -98,15 +98,19 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     let ok = args.plant_dt_s > 0.0
         && args.control_dt_s >= args.plant_dt_s
         && args.publish_dt_s >= args.control_dt_s
+        && args.publish_dt_s <= 10.0
         && args.control_dt_s <= 0.01
         && args.stale_after_s > 0.0
-        && args.time_scale > 0.0
+        && args.stale_after_s.is_finite()
+        && (1e-3..=1e3).contains(&args.time_scale)
         && args.duration_s > 0.0
+        && args.duration_s.is_finite()
         && args.distance_m >= 0.0
-        && args.v0 > 3.0;
+        && args.v0 > 3.0
+        && args.v0.is_finite();
     if !ok {
         return Err(TrackerProcError::Setup(
-            "need 0 < plant_dt <= control_dt <= min(publish_dt, 0.01), stale_after > 0, time_scale > 0, duration > 0, v0 > 3".into(),
+            "need 0 < plant_dt <= control_dt <= 0.01, control_dt <= publish_dt <= 10, finite stale_after > 0, time_scale in [1e-3, 1e3], finite duration > 0, distance >= 0, finite v0 > 3".into(),
         ));
     }
     let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)

@@ -89,7 +89,9 @@ impl EquilibriumProblem {
     /// The problem with speed bounds `v_min..v_max`, started from speed `v_start` with
     /// 5 % rear wheel slip (as the independent reference does).
     pub fn new(vehicle: VehicleParams, v_min: f64, v_max: f64, v_start: f64) -> Self {
-        let v0 = v_start.clamp(v_min, v_max);
+        // max/min, not clamp: no panic on unordered or NaN bounds (the spec check rejects
+        // them first).
+        let v0 = v_start.max(v_min).min(v_max);
         Self {
             vehicle,
             v_bounds: (v_min, v_max),
@@ -237,7 +239,7 @@ pub fn equilibrium(
     z[0] = 0.0;
     let project = |z: &mut [f64; NG]| {
         for i in 0..NG {
-            z[i] = z[i].clamp(lo[i], hi[i]);
+            z[i] = z[i].max(lo[i]).min(hi[i]);
         }
     };
     project(&mut z);

@@ -16,6 +16,9 @@ pub const DEFAULT_GUESS_SPEED: f64 = 15.0;
 /// Why a planner could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
+    /// The OCP data is outside its domain ([`OcpSpec::check`]).
+    #[error(transparent)]
+    Spec(#[from] crate::ocp::SpecError),
     /// The OCP data does not fit this transcription.
     #[error(transparent)]
     Transcription(#[from] TranscriptionError),
@@ -63,6 +66,7 @@ pub struct Planner<const N: usize> {
 impl<const N: usize> Planner<N> {
     /// Builds the OCP, the solver and the equilibrium guess (allocates).
     pub fn new(spec: OcpSpec, settings: Settings) -> Result<Self, PlanError> {
+        spec.check()?;
         let v_start = match spec.initial {
             InitialState::Fixed(x0) => x0[ix::V],
             InitialState::Free => DEFAULT_GUESS_SPEED,

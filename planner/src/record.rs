@@ -28,6 +28,14 @@ pub enum RecordError {
         /// What is wrong.
         problem: String,
     },
+    /// The problem data it describes is outside its domain ([`OcpSpec::check`]).
+    #[error("recorded input {seq}: {source}")]
+    Spec {
+        /// The input's seq.
+        seq: u64,
+        /// What is wrong.
+        source: crate::ocp::SpecError,
+    },
 }
 
 /// The vehicle as the recorded array (field order of `plan_record::VEHICLE_FIELDS`).
@@ -349,5 +357,9 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, GuessKind),
         },
         vehicle: vehicle_from_array(&input.vehicle),
     };
+    spec.check().map_err(|source| RecordError::Spec {
+        seq: input.seq,
+        source,
+    })?;
     Ok((spec, settings, guess))
 }

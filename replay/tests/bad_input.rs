@@ -113,6 +113,31 @@ fn wrong_schema() {
 }
 
 #[test]
+fn planner_schema_with_the_right_name_but_another_definition_is_refused() {
+    use plan_record::schema::{
+        INPUT_TOPIC, MESSAGE_ENCODING, PLAN_INPUT_MSG, PLAN_INPUT_NAME, SCHEMA_ENCODING,
+    };
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .create(Cursor::new(Vec::new()))
+        .unwrap();
+    // An older layout under the same name: one field renamed.
+    let old = PLAN_INPUT_MSG.replacen("settings", "solver_settings", 1);
+    assert_ne!(old, PLAN_INPUT_MSG);
+    let s = w
+        .add_schema(PLAN_INPUT_NAME, SCHEMA_ENCODING, old.as_bytes())
+        .unwrap();
+    w.add_channel(s, INPUT_TOPIC, MESSAGE_ENCODING, &BTreeMap::new())
+        .unwrap();
+    w.finish().unwrap();
+    let bytes = w.into_inner().into_inner();
+    let e = Recording::from_bytes(&bytes).unwrap_err();
+    assert!(matches!(e, ReadError::WrongSchema { .. }), "{e}");
+    assert!(e.to_string().contains("different definition"), "{e}");
+    check_cli("schema_text", &bytes, "different definition");
+}
+
+#[test]
 fn valid_mcap_without_planner_inputs_cannot_be_replayed() {
     let mut w = mcap::WriteOptions::new()
         .compression(None)

@@ -67,6 +67,32 @@ fn inputs_round_trip_bit_exactly_through_the_file() {
 }
 
 #[test]
+fn recorded_values_outside_their_domain_are_rejected_by_name_before_solving() {
+    let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    // Outside the config hash (which covers vehicle and settings only): speed bounds
+    // crossed (the guess's clamp used to panic on them), a NaN lane bound, a bad length.
+    let mut bad = rec.inputs[0].clone();
+    bad.v_min_mps = bad.v_max_mps + 1.0;
+    let e = problem_from(&bad).unwrap_err().to_string();
+    assert!(e.contains("v_max") && e.contains("recorded input"), "{e}");
+    let mut bad = rec.inputs[0].clone();
+    bad.e_min[37] = f64::NAN;
+    let e = problem_from(&bad).unwrap_err().to_string();
+    assert!(e.contains("e_min[37]"), "{e}");
+    let mut bad = rec.inputs[0].clone();
+    bad.length_m = -250.0;
+    let e = problem_from(&bad).unwrap_err().to_string();
+    assert!(e.contains("length"), "{e}");
+    // And `replay run` reports it instead of a panicked solver thread.
+    let mut bad_rec = rec.clone();
+    bad_rec.inputs[0].v_min_mps = bad_rec.inputs[0].v_max_mps + 1.0;
+    let e = run(&bad_rec, RunOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(!e.contains("panicked") && e.contains("v_max"), "{e}");
+}
+
+#[test]
 fn recorder_never_blocks_and_counts_every_drop() {
     let d = common::temp_dir("flood");
     let f = d.join("flood.mcap");

@@ -132,50 +132,8 @@ pub fn load_vehicle(path: &Path) -> Result<VehicleParams, ConfigError> {
         fmax_floor_frac: f.pos(md.fmax_floor_frac, "model.fmax_floor_frac")?,
     };
 
-    if (p.a + p.b - p.l).abs() > 1e-6 * p.l {
-        return Err(f.invalid(
-            "chassis.a + chassis.b",
-            p.a + p.b,
-            format!("must equal chassis.L = {} (within 1e-6 relative)", p.l),
-        ));
-    }
-    if p.delta_max >= std::f64::consts::FRAC_PI_2 {
-        return Err(f.invalid("limits.delta_max", p.delta_max, "must be below pi/2 rad"));
-    }
-    if p.t_comb_min >= 0.0 {
-        return Err(f.invalid(
-            "limits.T_comb_min",
-            p.t_comb_min,
-            "must be negative (rear braking)",
-        ));
-    }
-    if p.t_comb_max <= 0.0 {
-        return Err(f.invalid(
-            "limits.T_comb_max",
-            p.t_comb_max,
-            "must be positive (drive)",
-        ));
-    }
-    if p.t_bf_max > 0.0 {
-        return Err(f.invalid(
-            "limits.T_bf_max",
-            p.t_bf_max,
-            "must be <= 0 (the front axle only brakes)",
-        ));
-    }
-    if p.t_bf_min >= p.t_bf_max {
-        return Err(f.invalid(
-            "limits.T_bf_min",
-            p.t_bf_min,
-            format!("must be below limits.T_bf_max = {}", p.t_bf_max),
-        ));
-    }
-    if p.fmax_floor_frac >= 1.0 {
-        return Err(f.invalid(
-            "model.fmax_floor_frac",
-            p.fmax_floor_frac,
-            "must lie in (0, 1)",
-        ));
-    }
+    // The consistency checks (a + b = L, torque limits ordered, ...) are the model's own.
+    p.check()
+        .map_err(|e| f.invalid(e.field, e.value, e.expected))?;
     Ok(p)
 }

@@ -261,7 +261,6 @@ impl Settings {
             ("mu_max_decrease", self.mu_max_decrease),
             ("mu_linear_decrease", self.mu_linear_decrease),
             ("armijo", self.armijo),
-            ("bound_frac", self.bound_frac.min(0.49)),
         ];
         for (field, v) in unit {
             if !(v > 0.0 && v < 1.0) {
@@ -269,6 +268,48 @@ impl Settings {
                     field,
                     value: v.to_string(),
                     expected: "must lie in (0, 1)",
+                });
+            }
+        }
+        // Relations between values: each one's violation gives nonsense or cannot converge.
+        let relations = [
+            (
+                "bound_frac",
+                self.bound_frac,
+                self.bound_frac <= 0.5,
+                "must lie in (0, 0.5] (a larger fraction pushes the start past the far bound)",
+            ),
+            (
+                "mu_min",
+                self.mu_min,
+                self.mu_min <= self.mu_init && self.mu_min <= self.tol,
+                "must not exceed mu_init or tol (mu could not fall to the tolerance)",
+            ),
+            (
+                "acceptable_tol",
+                self.acceptable_tol,
+                self.acceptable_tol >= self.tol,
+                "must not be below tol",
+            ),
+            (
+                "delta_w_init",
+                self.delta_w_init,
+                self.delta_w_init <= self.delta_w_max,
+                "must not exceed delta_w_max",
+            ),
+            (
+                "delta_w_decrease",
+                self.delta_w_decrease,
+                self.delta_w_decrease >= 1.0,
+                "must be at least 1 (below 1 the shift would grow every iteration)",
+            ),
+        ];
+        for (field, v, ok, expected) in relations {
+            if !ok {
+                return Err(SettingsError {
+                    field,
+                    value: v.to_string(),
+                    expected,
                 });
             }
         }
@@ -325,5 +366,49 @@ impl Settings {
             });
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The field `validate` names for settings changed by `f`.
+    fn refused(f: impl Fn(&mut Settings)) -> &'static str {
+        let mut s = Settings::default();
+        f(&mut s);
+        s.validate().expect_err("must be refused").field
+    }
+
+    #[test]
+    fn defaults_are_valid() {
+        assert_eq!(Settings::default().validate(), Ok(()));
+    }
+
+    #[test]
+    fn values_that_would_panic_diverge_or_never_converge_are_refused_by_name() {
+        assert_eq!(refused(|s| s.bound_frac = 1.5), "bound_frac");
+        assert_eq!(refused(|s| s.bound_frac = 0.75), "bound_frac");
+        assert_eq!(refused(|s| s.bound_frac = f64::NAN), "bound_frac");
+        // mu_max = 1e3 mu_init would fall below mu_min (an adaptive rule's clamp).
+        assert_eq!(
+            refused(|s| {
+                s.mu_init = 1e-12;
+                s.mu_min = 1e-8;
+            }),
+            "mu_min"
+        );
+        assert_eq!(refused(|s| s.mu_min = 10.0 * s.tol), "mu_min");
+        assert_eq!(
+            refused(|s| s.acceptable_tol = 0.1 * s.tol),
+            "acceptable_tol"
+        );
+        assert_eq!(
+            refused(|s| s.delta_w_init = 10.0 * s.delta_w_max),
+            "delta_w_init"
+        );
+        assert_eq!(refused(|s| s.delta_w_decrease = 0.5), "delta_w_decrease");
+        assert_eq!(refused(|s| s.tau_min = 1.0), "tau_min");
+        assert_eq!(refused(|s| s.max_iter = 0), "max_iter");
     }
 }

@@ -178,6 +178,9 @@ impl<K: KktSolver> Solver<K> {
             info.factorizations += 1;
             times.factorization += tf.elapsed().as_secs_f64();
         }
+        // The best iterate starts as this solve's own start: a solve that stops before its
+        // first scored iterate (non-finite derivatives) must not restore an older point.
+        self.save_best();
 
         let mut mu = match s.barrier {
             BarrierRule::Monotone => s.mu_init,
@@ -469,7 +472,7 @@ impl<K: KktSolver> Solver<K> {
                         } else {
                             free_mode = false;
                             let e = compute_errors(&mut self.ws, mu);
-                            mu = (0.8 * e.mu_avg).clamp(s.mu_min, mu_max);
+                            mu = (0.8 * e.mu_avg).max(s.mu_min).min(mu_max);
                             if s.barrier == BarrierRule::Adaptive {
                                 // The quality-function rule never raises mu (see `direction`).
                                 mu = mu.min(mu_step_prev);
@@ -510,7 +513,9 @@ impl<K: KktSolver> Solver<K> {
                 None => {
                     ls_failures += 1;
                     force_reg = true;
-                    self.delta_w_last = (self.delta_w_last * 10.0).max(s.delta_w_init);
+                    self.delta_w_last = (self.delta_w_last * 10.0)
+                        .max(s.delta_w_init)
+                        .min(s.delta_w_max);
                     if err.inf_pr > RESTO_MIN_VIOLATION && resto_steps < s.max_restoration_steps {
                         resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
                     }
@@ -544,6 +549,7 @@ impl<K: KktSolver> Solver<K> {
                 Status::IterationLimit | Status::TimeLimit | Status::NumericalFailure
             ) && err.overall() <= s.acceptable_tol
                 && err.inf_pr <= s.acceptable_constr_viol_tol
+                && self.multipliers_finite()
             {
                 final_status = Status::Acceptable;
             }
@@ -580,7 +586,8 @@ impl<K: KktSolver> Solver<K> {
         }
         for i in 0..m {
             let (l, u) = (ws.g_l[i], ws.g_u[i]);
-            if l.is_nan() || u.is_nan() || l > u {
+            // An infinite equality bound would make its residual infinite.
+            if l.is_nan() || u.is_nan() || l > u || (l == u && !l.is_finite()) {
                 info.status = Status::InvalidInput;
                 return false;
             }
@@ -665,6 +672,15 @@ impl<K: KktSolver> Solver<K> {
             && e.inf_du <= s.dual_inf_tol
             && e.inf_pr <= s.constr_viol_tol
             && e.compl <= s.compl_inf_tol
+            && self.multipliers_finite()
+    }
+
+    /// Whether y, z_l and z_u are finite: the error measures' max reductions skip NaN, so
+    /// a NaN multiplier must not pass for a small error.
+    fn multipliers_finite(&self) -> bool {
+        let ws = &self.ws;
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        finite(&ws.y) && finite(&ws.zl) && finite(&ws.zu)
     }
 
     /// Ranking of iterates for "best so far": feasibility first, then KKT error.
@@ -1118,7 +1134,9 @@ impl<K: KktSolver> Solver<K> {
                 (mu, StepKind::Newton)
             }
             BarrierRule::Loqo => {
-                let mu_new = barrier::loqo(&self.ws, err.mu_avg).clamp(s.mu_min, mu_max);
+                let mu_new = barrier::loqo(&self.ws, err.mu_avg)
+                    .max(s.mu_min)
+                    .min(mu_max);
                 self.set_targets(mu_new, false);
                 self.solve_direction(delta_w, false);
                 (mu_new, StepKind::Newton)

@@ -58,7 +58,119 @@ pub struct VehicleParams {
     pub fmax_floor_frac: f64,
 }
 
+/// A vehicle parameter outside the domain the model relies on (field named as in the
+/// vehicle file).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field} = {value}: {expected}")]
+pub struct ParamError {
+    /// The vehicle file's field name.
+    pub field: &'static str,
+    /// The value.
+    pub value: f64,
+    /// What it must be.
+    pub expected: String,
+}
+
 impl VehicleParams {
+    /// Checks the domain every model function relies on (finite values, positive sizes,
+    /// stiffnesses and rate limits, ordered torque limits, a + b = L, delta_max < pi/2):
+    /// what the vehicle file loader enforces, for parameters that come from elsewhere (a
+    /// recording, a message).
+    pub fn check(&self) -> Result<(), ParamError> {
+        let err = |field, value, expected: &str| ParamError {
+            field,
+            value,
+            expected: expected.into(),
+        };
+        for (field, v) in [
+            ("chassis.m", self.m),
+            ("chassis.L", self.l),
+            ("chassis.a", self.a),
+            ("chassis.b", self.b),
+            ("chassis.h_cg", self.h_cg),
+            ("chassis.I_z", self.i_z),
+            ("chassis.g", self.g),
+            ("wheel.R_w", self.r_w),
+            ("wheel.I_w", self.i_w),
+            ("tire.C_f", self.c_f),
+            ("tire.C_r", self.c_r),
+            ("tire.mu", self.mu),
+            ("load_transfer.c_L", self.c_l),
+            ("limits.delta_max", self.delta_max),
+            ("limits.delta_rate_max", self.delta_rate_max),
+            ("limits.T_comb_rate_max", self.t_comb_rate_max),
+            ("limits.T_bf_rate_max", self.t_bf_rate_max),
+            ("model.eps_sigma", self.eps_sigma),
+            ("model.eps_sat", self.eps_sat),
+            ("model.fmax_floor_frac", self.fmax_floor_frac),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(err(field, v, "must be a finite positive number"));
+            }
+        }
+        for (field, v) in [
+            ("limits.T_comb_max", self.t_comb_max),
+            ("limits.T_comb_min", self.t_comb_min),
+            ("limits.T_bf_min", self.t_bf_min),
+            ("limits.T_bf_max", self.t_bf_max),
+            ("limits.V_wr_min", self.v_wr_min),
+        ] {
+            if !v.is_finite() {
+                return Err(err(field, v, "must be a finite number"));
+            }
+        }
+        if (self.a + self.b - self.l).abs() > 1e-6 * self.l {
+            return Err(ParamError {
+                field: "chassis.a + chassis.b",
+                value: self.a + self.b,
+                expected: format!("must equal chassis.L = {} (within 1e-6 relative)", self.l),
+            });
+        }
+        if self.delta_max >= std::f64::consts::FRAC_PI_2 {
+            return Err(err(
+                "limits.delta_max",
+                self.delta_max,
+                "must be below pi/2 rad",
+            ));
+        }
+        if self.t_comb_min >= 0.0 {
+            return Err(err(
+                "limits.T_comb_min",
+                self.t_comb_min,
+                "must be negative (rear braking)",
+            ));
+        }
+        if self.t_comb_max <= 0.0 {
+            return Err(err(
+                "limits.T_comb_max",
+                self.t_comb_max,
+                "must be positive (drive)",
+            ));
+        }
+        if self.t_bf_max > 0.0 {
+            return Err(err(
+                "limits.T_bf_max",
+                self.t_bf_max,
+                "must be <= 0 (the front axle only brakes)",
+            ));
+        }
+        if self.t_bf_min >= self.t_bf_max {
+            return Err(ParamError {
+                field: "limits.T_bf_min",
+                value: self.t_bf_min,
+                expected: format!("must be below limits.T_bf_max = {}", self.t_bf_max),
+            });
+        }
+        if self.fmax_floor_frac >= 1.0 {
+            return Err(err(
+                "model.fmax_floor_frac",
+                self.fmax_floor_frac,
+                "must lie in (0, 1)",
+            ));
+        }
+        Ok(())
+    }
+
     /// Static front axle load F_z,nom,f = m g b / L [N].
     pub fn fz_nom_front(&self) -> f64 {
         self.m * self.g * self.b / self.l
@@ -99,5 +211,26 @@ pub fn lc500() -> VehicleParams {
         eps_sigma: 1.0e-3,
         eps_sat: 0.01,
         fmax_floor_frac: 0.01,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_lc500_passes_and_broken_parameters_are_named() {
+        assert_eq!(lc500().check(), Ok(()));
+        let field = |f: &dyn Fn(&mut VehicleParams)| {
+            let mut p = lc500();
+            f(&mut p);
+            p.check().expect_err("must be refused").field
+        };
+        assert_eq!(field(&|p| p.m = f64::NAN), "chassis.m");
+        assert_eq!(field(&|p| p.mu = -1.0), "tire.mu");
+        assert_eq!(field(&|p| p.v_wr_min = f64::INFINITY), "limits.V_wr_min");
+        assert_eq!(field(&|p| p.a = 2.0), "chassis.a + chassis.b");
+        assert_eq!(field(&|p| p.t_bf_min = 10.0), "limits.T_bf_min");
+        assert_eq!(field(&|p| p.delta_max = 2.0), "limits.delta_max");
     }
 }

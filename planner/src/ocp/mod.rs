@@ -13,7 +13,7 @@ pub mod spec;
 pub mod transcription;
 
 pub use layout::Layout;
-pub use spec::{InitialState, OcpSpec};
+pub use spec::{InitialState, OcpSpec, SpecError};
 pub use transcription::{
     CrankNicolson, DefectScheme, Derivatives, ExplicitRk2, ExplicitRk4, GaussLegendre2,
     GaussLegendre3, ImplicitEuler, ImplicitEulerNlp, LinearMultistep, MultistepFamily, RowInfo,

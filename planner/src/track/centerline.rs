@@ -221,7 +221,7 @@ impl Profile {
         let mut period = 0.0;
         for (i, r) in rows.iter().enumerate() {
             let [x, y, wr, wl] = r.values;
-            if wr <= 0.0 || wl <= 0.0 {
+            if !(wr > 0.0 && wl > 0.0) {
                 return Err(ConfigError::csv(
                     path,
                     r.line,
@@ -335,7 +335,7 @@ impl Profile {
                 format!("curvature is not finite at s = {i} m (degenerate centerline)"),
             ));
         }
-        if let Some(i) = (0..n_out).find(|&i| w_right[i] <= 0.0 || w_left[i] <= 0.0) {
+        if let Some(i) = (0..n_out).find(|&i| !(w_right[i] > 0.0 && w_left[i] > 0.0)) {
             return Err(ConfigError::csv(
                 path,
                 0,

@@ -91,7 +91,7 @@ impl Profile {
                 }
             }
             for (name, w) in [("w_right_m", wr), ("w_left_m", wl)] {
-                if w <= 0.0 {
+                if w.is_nan() || w <= 0.0 {
                     return Err(ConfigError::csv(
                         path,
                         r.line,

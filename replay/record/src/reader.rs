@@ -137,6 +137,8 @@ pub struct Recording {
 struct SchemaDef {
     name: String,
     encoding: String,
+    /// The schema text (a planner channel's must be the one this crate writes).
+    text: Vec<u8>,
 }
 
 impl Recording {
@@ -200,10 +202,11 @@ impl Recording {
                 LinearReadEvent::Record { data: body, opcode } => {
                     let record = mcap::parse_record(opcode, body).map_err(|e| mcap_err(fed, e))?;
                     match record {
-                        McapRecord::Schema { header, .. } => {
+                        McapRecord::Schema { header, data } => {
                             let def = SchemaDef {
                                 name: header.name,
                                 encoding: header.encoding,
+                                text: data.into_owned(),
                             };
                             if let Some(old) = schemas.get(&header.id) {
                                 if *old != def {
@@ -217,8 +220,8 @@ impl Recording {
                             }
                         }
                         McapRecord::Channel(c) => {
-                            let (schema, schema_encoding) = if c.schema_id == 0 {
-                                (String::new(), String::new())
+                            let (schema, schema_encoding, text) = if c.schema_id == 0 {
+                                (String::new(), String::new(), &[][..])
                             } else {
                                 let s = schemas.get(&c.schema_id).ok_or_else(|| {
                                     ReadError::UnknownSchema {
@@ -226,7 +229,7 @@ impl Recording {
                                         schema_id: c.schema_id,
                                     }
                                 })?;
-                                (s.name.clone(), s.encoding.clone())
+                                (s.name.clone(), s.encoding.clone(), &s.text[..])
                             };
                             let info = ChannelInfo {
                                 id: c.id,
@@ -236,7 +239,7 @@ impl Recording {
                                 message_encoding: c.message_encoding,
                                 messages: 0,
                             };
-                            check_planner_channel(&info)?;
+                            check_planner_channel(&info, text)?;
                             match channels.get(&c.id) {
                                 Some(old)
                                     if old.topic != info.topic
@@ -311,11 +314,13 @@ impl Recording {
     }
 }
 
-/// The planner topics must carry exactly the schema this crate writes.
-fn check_planner_channel(c: &ChannelInfo) -> Result<(), ReadError> {
-    let expected = match c.topic.as_str() {
-        INPUT_TOPIC => PLAN_INPUT_NAME,
-        OUTPUT_TOPIC => PLAN_OUTPUT_NAME,
+/// The planner topics must carry exactly the schema this crate writes: name, encodings
+/// and text (an older layout under the same name could otherwise decode into wrong fields
+/// when its sizes happen to match).
+fn check_planner_channel(c: &ChannelInfo, text: &[u8]) -> Result<(), ReadError> {
+    let (expected, expected_text) = match c.topic.as_str() {
+        INPUT_TOPIC => (PLAN_INPUT_NAME, PLAN_INPUT_MSG),
+        OUTPUT_TOPIC => (PLAN_OUTPUT_NAME, PLAN_OUTPUT_MSG),
         _ => return Ok(()),
     };
     if c.schema != expected
@@ -330,6 +335,19 @@ fn check_planner_channel(c: &ChannelInfo) -> Result<(), ReadError> {
             ),
             expected: format!(
                 "schema `{expected}` ({SCHEMA_ENCODING}) with {MESSAGE_ENCODING} messages"
+            ),
+        });
+    }
+    if text != expected_text.as_bytes() {
+        return Err(ReadError::WrongSchema {
+            topic: c.topic.clone(),
+            found: format!(
+                "schema `{expected}` with a different definition ({} bytes)",
+                text.len()
+            ),
+            expected: format!(
+                "this build's definition of `{expected}` ({} bytes)",
+                expected_text.len()
             ),
         });
     }

@@ -309,6 +309,21 @@ impl Trajectory {
         Ok(())
     }
 
+    /// [`Self::validate`], and the node spacing must be this road's `ds` (to 1e-9
+    /// relative): a plan on another grid would be tracked over the wrong horizon.
+    pub fn validate_for(&self, road: RoadId, ds: f64) -> Result<(), Invalid> {
+        self.validate(road)?;
+        if (self.ds - ds).abs() > 1e-9 * ds.abs() {
+            return Err(Invalid::Range {
+                field: "ds",
+                value: self.ds,
+                min: ds,
+                max: ds,
+            });
+        }
+        Ok(())
+    }
+
     /// Horizon length N ds [m].
     pub fn length(&self) -> f64 {
         self.ds * HORIZON_N as f64
@@ -409,6 +424,12 @@ mod tests {
         m.ds = 0.0;
         assert!(matches!(
             m.validate(7),
+            Err(Invalid::Range { field: "ds", .. })
+        ));
+        // The grid must be the receiver's.
+        assert_eq!(good_plan().validate_for(7, 2.5), Ok(()));
+        assert!(matches!(
+            good_plan().validate_for(7, 2.0),
             Err(Invalid::Range { field: "ds", .. })
         ));
     }

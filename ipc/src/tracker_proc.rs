@@ -199,7 +199,7 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         while let Some(sample) = sub.receive().map_err(ipc_err("receive trajectory"))? {
             let m: &Trajectory = sample.payload();
             let now_ns = monotonic_ns();
-            match m.validate(sc.id) {
+            match m.validate_for(sc.id, sc.ds()) {
                 Ok(()) => {
                     ipc_lat.record_ns(now_ns.saturating_sub(m.stamp_ns));
                     plan_lat.record_ns(now_ns.saturating_sub(m.from_state_stamp_ns));

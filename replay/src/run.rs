@@ -66,6 +66,15 @@ pub enum ReplayError {
     /// The budget is not a positive number.
     #[error("--budget-ms must be a positive number, got {0}")]
     Budget(f64),
+    /// Two recorded outputs (or inputs) share a seq: which one a replay is compared with
+    /// would be arbitrary.
+    #[error("the recording holds two planner {what} with seq {seq}")]
+    DuplicateSeq {
+        /// "inputs" or "outputs".
+        what: &'static str,
+        /// The seq.
+        seq: u64,
+    },
     /// The solver thread failed.
     #[error("replay thread: {0}")]
     Thread(String),
@@ -164,7 +173,23 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
         Some(c) => cores.get(c).copied(),
         None => cores.last().copied(),
     };
-    let outputs: HashMap<u64, &PlanOutput> = rec.outputs.iter().map(|o| (o.seq, o)).collect();
+    let mut outputs: HashMap<u64, &PlanOutput> = HashMap::with_capacity(rec.outputs.len());
+    for o in &rec.outputs {
+        if outputs.insert(o.seq, o).is_some() {
+            return Err(ReplayError::DuplicateSeq {
+                what: "outputs",
+                seq: o.seq,
+            });
+        }
+    }
+    let mut seqs: Vec<u64> = rec.inputs.iter().map(|i| i.seq).collect();
+    seqs.sort_unstable();
+    if let Some(w) = seqs.windows(2).find(|w| w[0] == w[1]) {
+        return Err(ReplayError::DuplicateSeq {
+            what: "inputs",
+            seq: w[0],
+        });
+    }
     let per_plan = std::thread::scope(|s| {
         s.spawn(|| {
             let pinned = core

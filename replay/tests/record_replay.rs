@@ -171,3 +171,18 @@ fn cli_run_json_and_info() {
     assert!((0.1..10.0).contains(&dur), "{dur}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn duplicate_seqs_are_refused_not_compared_arbitrarily() {
+    let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    let mut dup = rec.clone();
+    let first = dup.outputs[0].clone();
+    dup.outputs.push(first);
+    let e = run(&dup, RunOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("two planner outputs"), "{e}");
+    let mut dup = rec.clone();
+    let first = dup.inputs[0].clone();
+    dup.inputs.push(first);
+    let e = run(&dup, RunOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("two planner inputs"), "{e}");
+}

@@ -196,10 +196,41 @@ impl Scenario {
                 }
             }
         }
-        if !(lap.is_finite() && lap > 0.0 && e_min < e_max && !pieces.is_empty()) {
-            return Err(unsupported(
-                "need lap_length_m > 0, e_min_m < e_max_m and some kappa_pieces",
-            ));
+        if !(lap.is_finite() && lap > 0.0) {
+            return Err(unsupported(&format!(
+                "[geometry] lap_length_m = {lap}: must be a finite positive length"
+            )));
+        }
+        if !(e_min.is_finite() && e_max.is_finite() && e_min < e_max) {
+            return Err(unsupported(&format!(
+                "[track] e_min_m = {e_min} must be below e_max_m = {e_max} (both finite)"
+            )));
+        }
+        if pieces.is_empty() {
+            return Err(unsupported("[track] kappa_pieces is empty"));
+        }
+        // Starts must be ascending from 0: the curvature is looked up at s mod lap among
+        // ascending starts. Pieces from the lap length on describe an open horizon run past
+        // one lap (the oval's last piece starts exactly at the lap); the closed road wraps
+        // instead, so it drops them.
+        for (i, &(s0, _)) in pieces.iter().enumerate() {
+            if s0 < 0.0 {
+                return Err(unsupported(&format!(
+                    "[track] kappa_pieces[{i}] starts at s = {s0} m, before the start of the lap"
+                )));
+            }
+            if i > 0 && s0 <= pieces[i - 1].0 {
+                return Err(unsupported(&format!(
+                    "[track] kappa_pieces[{i}] starts at s = {s0} m, not after the previous piece ({} m)",
+                    pieces[i - 1].0
+                )));
+            }
+        }
+        pieces.retain(|&(s0, _)| s0 < lap);
+        if pieces.is_empty() {
+            return Err(unsupported(&format!(
+                "[track] no kappa_pieces entry starts within the lap [0, {lap})"
+            )));
         }
         Ok(Self {
             spec,
@@ -212,5 +243,66 @@ impl Scenario {
     /// Node spacing of the planning horizon [m].
     pub fn ds(&self) -> f64 {
         self.spec.ds()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn root() -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+    }
+
+    /// Loads the oval with its `kappa_pieces` block replaced by `pieces`.
+    fn oval_with(name: &str, pieces: &str) -> Result<Scenario, RoadError> {
+        let text = std::fs::read_to_string(root().join("config/scenarios/oval.toml")).unwrap();
+        let start = text.find("kappa_pieces = [").unwrap();
+        let end = start + text[start..].find("\n]\n").unwrap() + 3;
+        let text = format!(
+            "{}kappa_pieces = {pieces}\n{}",
+            &text[..start],
+            &text[end..]
+        );
+        // A data root of its own (scenarios/ with the profile CSV the file names).
+        let dir = std::env::temp_dir().join(format!("road_test_{name}_{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("scenarios")).unwrap();
+        std::fs::copy(
+            root().join("config/scenarios/oval_profile.csv"),
+            dir.join("scenarios/oval_profile.csv"),
+        )
+        .unwrap();
+        let path = dir.join("scenarios/oval.toml");
+        std::fs::write(&path, text).unwrap();
+        let sc = Scenario::load(
+            &path,
+            &root().join("config/vehicles/lc500.toml"),
+            &root().join("config/solver.toml"),
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+        sc
+    }
+
+    #[test]
+    fn the_oval_closes_and_drops_the_piece_past_the_lap() {
+        let sc = oval_with("ok", "[[0.0, 0.0], [50.0, 0.04], [128.5398163, 0.0], [178.5398163, 0.04], [257.0796327, 0.0]]")
+            .expect("the oval loads");
+        assert_eq!(sc.road.kappa(60.0), 0.04);
+        assert_eq!(sc.road.kappa(257.0796327 + 10.0), 0.0);
+        assert_eq!(sc.road.kappa(257.0796327 + 60.0), 0.04);
+    }
+
+    #[test]
+    fn unordered_or_negative_pieces_are_refused_by_index() {
+        let e = oval_with("order", "[[0.0, 0.0], [128.5, 0.0], [50.0, 0.04]]")
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(e.contains("kappa_pieces"), "{e}");
+        let e = oval_with("neg", "[[-5.0, 0.0], [50.0, 0.04]]")
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(e.contains("kappa_pieces"), "{e}");
     }
 }

@@ -294,15 +294,15 @@ mod tests {
 
     #[test]
     fn unordered_or_negative_pieces_are_refused_by_index() {
-        let e = oval_with("order", "[[0.0, 0.0], [128.5, 0.0], [50.0, 0.04]]")
-            .err()
-            .expect("refused")
-            .to_string();
+        let Err(e) = oval_with("order", "[[0.0, 0.0], [128.5, 0.0], [50.0, 0.04]]") else {
+            panic!("refused")
+        };
+        let e = e.to_string();
         assert!(e.contains("kappa_pieces"), "{e}");
-        let e = oval_with("neg", "[[-5.0, 0.0], [50.0, 0.04]]")
-            .err()
-            .expect("refused")
-            .to_string();
+        let Err(e) = oval_with("neg", "[[-5.0, 0.0], [50.0, 0.04]]") else {
+            panic!("refused")
+        };
+        let e = e.to_string();
         assert!(e.contains("kappa_pieces"), "{e}");
     }
 }

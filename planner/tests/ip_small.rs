@@ -331,6 +331,31 @@ fn nan_start_is_invalid_input() {
     assert_eq!(info.status, Status::InvalidInput);
 }
 
+#[test]
+fn infinite_equality_bound_is_invalid_input() {
+    let mut p = hs071();
+    p.g_l[1] = INF;
+    p.g_u[1] = INF;
+    let (info, _) = solve(&mut p, BarrierRule::Monotone);
+    assert_eq!(info.status, Status::InvalidInput);
+}
+
+/// A solve that stops before its first scored iterate (here: a NaN gradient at the start)
+/// reports this solve's own start, not an older point (zeros on a fresh solver).
+#[test]
+fn failure_at_the_start_returns_the_start() {
+    let mut p = hs071();
+    p.grad = |_, g| g.fill(f64::NAN);
+    let mut solver = Solver::new(&p, Settings::default()).unwrap();
+    let info = solver.solve(&mut p);
+    assert_eq!(info.status, Status::NumericalFailure);
+    let x = solver.x();
+    // The start (1, 5, 5, 1), pushed into [1, 5] by at most 1e-2 per entry.
+    for (v, s) in x.iter().zip([1.0, 5.0, 5.0, 1.0]) {
+        assert!((v - s).abs() < 0.05, "{x:?}");
+    }
+}
+
 /// min x0^2 + x1^2 s.t. x0 + x1 >= 0 and x0 - x1 >= 0: both constraints active at the
 /// optimum (0, 0) with zero multipliers (strict complementarity fails: degenerate).
 fn degenerate_complementarity() -> Dense {

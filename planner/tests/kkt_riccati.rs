@@ -367,7 +367,8 @@ fn riccati_residuals_during_oval_solve() {
             s,
             worst: 0.0,
         },
-    );
+    )
+    .expect("valid settings");
     let info = solver.solve(nlp);
     assert_eq!(info.status, Status::Optimal);
     let worst = solver.kkt().worst;

@@ -65,19 +65,21 @@ impl Solver<KktBackend> {
             structure.as_ref(),
             settings.threads,
         )?;
-        Ok(Self::with_backend(settings, ws, kkt))
+        Self::with_backend(settings, ws, kkt)
     }
 }
 
 impl<K: KktSolver> Solver<K> {
-    /// Builds a solver around a given backend and workspace.
-    pub fn with_backend(settings: Settings, ws: Workspace, kkt: K) -> Self {
-        Self {
+    /// Builds a solver around a given backend and workspace; the settings are validated
+    /// as in [`Solver::new`].
+    pub fn with_backend(settings: Settings, ws: Workspace, kkt: K) -> Result<Self, SetupError> {
+        settings.validate()?;
+        Ok(Self {
             settings,
             ws,
             kkt,
             delta_w_last: 0.0,
-        }
+        })
     }
 
     /// The KKT backend.

@@ -383,7 +383,7 @@ mod tests {
 
     /// Every kernel, run once on a copy of `ws`; returns all outputs as bits.
     fn run_all(mut ws: Workspace, simd: bool) -> Vec<u64> {
-        ws.simd = simd && crate::cpu::avx2_available();
+        ws.set_simd(simd);
         let mut out = Vec::new();
         let (ap, ad) = max_steps(&ws, 0.99);
         let gd = barrier_grad_dot(&ws, 0.1);

@@ -128,11 +128,23 @@ pub struct Workspace {
     pub filter: Vec<(f64, f64)>,
     /// Free-mode progress filter of (violation, objective) pairs.
     pub progress: Vec<(f64, f64)>,
-    /// Run the vector kernels of [`super::vector`] in their AVX2 copy (same bits).
-    pub simd: bool,
+    /// Run the vector kernels of [`super::vector`] in their AVX2 copy (same bits). Only
+    /// [`Workspace::set_simd`] sets it, so it is never true on a CPU without AVX2.
+    pub(crate) simd: bool,
 }
 
 impl Workspace {
+    /// Runs the vector kernels in their AVX2 copy when `on` and the CPU has AVX2 (the
+    /// default where available); same bits either way.
+    pub fn set_simd(&mut self, on: bool) {
+        self.simd = on && crate::cpu::avx2_available();
+    }
+
+    /// Whether the vector kernels run in their AVX2 copy.
+    pub fn simd(&self) -> bool {
+        self.simd
+    }
+
     /// Allocates every buffer for this NLP; `log_capacity` bounds the iteration log.
     pub fn new<P: Nlp + ?Sized>(nlp: &P, log_capacity: usize) -> Self {
         let NlpDims {

@@ -415,6 +415,14 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                     });
                 }
             }
+            // Pairs index a row's entries by u16.
+            if ents.len() > usize::from(u16::MAX) {
+                return Err(StructureError::Size(format!(
+                    "path row {p} has {} Jacobian entries (at most {})",
+                    ents.len(),
+                    u16::MAX
+                )));
+            }
             let start = path_entries.len();
             path_entries.extend_from_slice(ents);
             let pairs_start = path_pairs.len();
@@ -866,6 +874,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             j_base: self.j_base,
             arena: self.arena.as_mut_ptr(),
             inverses: self.inverses.as_mut_ptr(),
+            simd: self.simd,
         };
         let sweep = Sweep {
             factors: &mut self.factors,
@@ -877,7 +886,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         let (p, mut inertia) = match self.worker.as_mut() {
             None => sweep.run(&asm, |k| {
                 // SAFETY: one thread; every unit is written once, before its stage reads it.
-                unsafe { asm.unit(k, v) }
+                unsafe { asm.unit_for_cpu(k, v) }
             })?,
             Some(shared) => {
                 // Units done, in sweep order (N, N-1, .., 0); the sweep stops the helper
@@ -894,7 +903,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                         }
                         // SAFETY: the helper writes unit k while the sweep reads only units
                         // published before it (release/acquire on `done`).
-                        unsafe { asm.unit(k, v) };
+                        unsafe { asm.unit_for_cpu(k, v) };
                         if (i + 1) % PUBLISH_EVERY == 0 || k == 0 {
                             done.store(i + 1, Ordering::Release);
                         }
@@ -1264,13 +1273,13 @@ struct Assembly<'a, const NX: usize, const NZ: usize> {
     j_base: usize,
     arena: *mut f64,
     inverses: *mut StageInverse<NX>,
+    /// Write the units in the AVX2-compiled copy ([`Self::unit_for_cpu`]).
+    simd: bool,
 }
 
 // SAFETY: shared between the sweep and the helper only under the protocol described on the
 // type (each unit's memory is written by one thread before the other reads it).
 unsafe impl<const NX: usize, const NZ: usize> Sync for Assembly<'_, NX, NZ> {}
-// SAFETY: as above.
-unsafe impl<const NX: usize, const NZ: usize> Send for Assembly<'_, NX, NZ> {}
 
 impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
     /// Writes unit `k` (see [`Unit`]): zeroes, Jacobian and Hessian values, the primal
@@ -1347,6 +1356,32 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
                 }
             }
         }
+    }
+
+    /// [`Self::unit`] in the copy compiled for this CPU. The sweep's and the helper's
+    /// callbacks are closures, and a closure does not take the target features of the AVX2
+    /// entry point it is inlined into: called directly from them, the assembly (E_k^-1
+    /// included) ran as baseline code. Same bits either way.
+    ///
+    /// # Safety
+    /// As [`Self::unit`].
+    #[inline(always)]
+    unsafe fn unit_for_cpu(&self, k: usize, v: &KktValues<'_>) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2; the caller upholds
+            // `unit`'s contract.
+            return self.unit_avx2(k, v);
+        }
+        self.unit(k, v)
+    }
+
+    /// # Safety
+    /// The CPU has AVX2; as [`Self::unit`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn unit_avx2(&self, k: usize, v: &KktValues<'_>) {
+        self.unit(k, v)
     }
 
     /// `len` arena entries from `o`.

@@ -220,6 +220,15 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
     rows: Vec<RowInfo>,
 }
 
+/// Which per-stage values [`Transcription::stage_eval`] writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StageEval {
+    /// Constraint rows.
+    Rows,
+    /// Jacobian entries.
+    Jacobian,
+}
+
 /// What one stage's Hessian terms need, shared by the serial and the stage-parallel
 /// evaluation.
 struct HessParts<'a, S> {
@@ -233,6 +242,45 @@ struct HessParts<'a, S> {
 }
 
 impl<S: DefectScheme> HessParts<'_, S> {
+    /// [`Self::stage`] for the stages `ks`, `emit(k, position, slot, value)`, in the copy
+    /// compiled for this CPU when `simd`: the stage-parallel evaluation runs it from
+    /// closures, which do not take the AVX2 entry point's target features. Same bits.
+    #[inline(always)]
+    fn stages_for_cpu(
+        &self,
+        simd: bool,
+        ks: std::ops::Range<usize>,
+        x: &[f64],
+        lambda: &[f64],
+        scratch: &mut [f64],
+        emit: &mut impl FnMut(usize, usize, usize, f64),
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2.
+            return unsafe { self.stages_avx2(ks, x, lambda, scratch, emit) };
+        }
+        let _ = simd;
+        for k in ks {
+            self.stage(k, x, lambda, scratch, |pos, s, v| emit(k, pos, s, v));
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn stages_avx2(
+        &self,
+        ks: std::ops::Range<usize>,
+        x: &[f64],
+        lambda: &[f64],
+        scratch: &mut [f64],
+        emit: &mut impl FnMut(usize, usize, usize, f64),
+    ) {
+        for k in ks {
+            self.stage(k, x, lambda, scratch, |pos, s, v| emit(k, pos, s, v));
+        }
+    }
+
     /// Stage k's Hessian terms in the serial order: `emit(position, slot, value)` for its
     /// defect block, then its saturation block (positions count on across both).
     #[inline(always)]
@@ -794,26 +842,15 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
 
     fn eval_g(&mut self, x: &[f64], g: &mut [f64]) {
         let this = &*self;
-        let cx = this.context();
         let lay = &this.layout;
-        let p = &this.spec.vehicle;
         for (r, &i) in INITIAL_ROWS.iter().enumerate() {
             g[r] = x[lay.x(0, i)];
         }
-        // Stage k's rows into `out`, which starts at row `off`.
-        let stage = |k: usize, out: &mut [f64], off: usize| {
-            let st = &this.stages[k];
-            let d = st.row_defect - off;
-            this.scheme.eval(&cx, k, x, &mut out[d..d + S::ROWS]);
-            friction_eval(p, lay, k, x, &mut out[st.row_friction - off..]);
-            if this.spec.enforce_tire_saturation {
-                saturation_eval(p, lay, k, x, &mut out[st.row_sat - off..]);
-            }
-            if k >= 1 {
-                rate_eval(p, lay, k, x, &mut out[st.row_rate - off..]);
-            }
-        };
-        this.for_stages(g, |st| st.row_defect, stage);
+        this.for_stages(
+            g,
+            |st| st.row_defect,
+            |k, out, off| this.stage_for_cpu(StageEval::Rows, x, k, out, off),
+        );
     }
 
     fn eval_jac_g(&mut self, x: &[f64], vals: &mut [f64]) {
@@ -868,6 +905,12 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
     /// worker the stages after `stage_split` run on the helper thread; same bits.
     #[inline(always)]
     fn eval_hess_body(&mut self, x: &[f64], lambda: &[f64], vals: &mut [f64]) {
+        // The stage-parallel path writes through a raw pointer: every slot must be in `vals`.
+        assert_eq!(
+            vals.len(),
+            self.hess_rows.len(),
+            "Hessian values buffer length"
+        );
         vals.fill(0.0);
         let cx = SchemeContext {
             vehicle: &self.spec.vehicle,
@@ -895,28 +938,30 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         let out = SendPtr(vals.as_mut_ptr());
         let (deferred, side, scratch2) =
             (&self.hess_deferred, &mut self.hess_side, &mut self.scratch2);
+        let simd = self.simd;
         let mut job = || {
             let out = &out;
-            for k in split..N {
-                parts.stage(k, x, lambda, scratch2, |pos, s, v| {
-                    if k == split && deferred[pos] {
-                        side[pos] = v;
-                    } else {
-                        // SAFETY: slots of stages >= split that no earlier stage writes:
-                        // this thread's alone until the join.
-                        unsafe { *out.0.add(s) += v };
-                    }
-                });
-            }
+            parts.stages_for_cpu(simd, split..N, x, lambda, scratch2, &mut |k, pos, s, v| {
+                if k == split && deferred[pos] {
+                    side[pos] = v;
+                } else {
+                    // SAFETY: slots of stages >= split that no earlier stage writes:
+                    // this thread's alone until the join.
+                    unsafe { *out.0.add(s) += v };
+                }
+            });
         };
         let scratch = &mut self.scratch;
         worker::lock(shared).join(&mut job, || {
-            for k in 0..split {
-                // SAFETY: slots of stages < split (the helper defers those it shares).
-                parts.stage(k, x, lambda, scratch, |_, s, v| unsafe {
-                    *out.0.add(s) += v
-                });
-            }
+            // SAFETY: slots of stages < split (the helper defers those it shares).
+            parts.stages_for_cpu(
+                simd,
+                0..split,
+                x,
+                lambda,
+                scratch,
+                &mut |_, _, s, v| unsafe { *out.0.add(s) += v },
+            );
         });
         parts.stage_slots(split, |pos, s| {
             if self.hess_deferred[pos] {
@@ -966,28 +1011,77 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
     #[inline(always)]
     fn eval_jac_body(&mut self, x: &[f64], vals: &mut [f64]) {
         let this = &*self;
-        let cx = this.context();
-        let lay = &this.layout;
-        let p = &this.spec.vehicle;
         vals[..this.n_init].fill(1.0);
-        // Stage k's entries into `out`, which starts at entry `off`.
-        let stage = |k: usize, out: &mut [f64], off: usize| {
-            let st = &this.stages[k];
-            let (d, len) = (st.jac_defect - off, this.jac_defect_len[k]);
-            this.scheme.jac(&cx, k, x, &mut out[d..d + len]);
-            friction_jac(p, &mut out[st.jac_friction - off..]);
-            if this.spec.enforce_tire_saturation {
-                if cx.oracle {
-                    saturation_jac(p, lay, k, x, &mut out[st.jac_sat - off..]);
-                } else {
-                    saturation_jac_fast(p, lay, k, x, &mut out[st.jac_sat - off..]);
+        this.for_stages(
+            vals,
+            |st| st.jac_defect,
+            |k, out, off| this.stage_for_cpu(StageEval::Jacobian, x, k, out, off),
+        );
+    }
+
+    /// Stage k's constraint rows or Jacobian entries into `out`, which starts at row or
+    /// entry `off` (the body of [`Self::for_stages`]' callbacks).
+    #[inline(always)]
+    fn stage_eval(&self, what: StageEval, x: &[f64], k: usize, out: &mut [f64], off: usize) {
+        let cx = self.context();
+        let lay = &self.layout;
+        let p = &self.spec.vehicle;
+        let st = &self.stages[k];
+        match what {
+            StageEval::Rows => {
+                let d = st.row_defect - off;
+                self.scheme.eval(&cx, k, x, &mut out[d..d + S::ROWS]);
+                friction_eval(p, lay, k, x, &mut out[st.row_friction - off..]);
+                if self.spec.enforce_tire_saturation {
+                    saturation_eval(p, lay, k, x, &mut out[st.row_sat - off..]);
+                }
+                if k >= 1 {
+                    rate_eval(p, lay, k, x, &mut out[st.row_rate - off..]);
                 }
             }
-            if k >= 1 {
-                rate_jac(p, &mut out[st.jac_rate - off..]);
+            StageEval::Jacobian => {
+                let (d, len) = (st.jac_defect - off, self.jac_defect_len[k]);
+                self.scheme.jac(&cx, k, x, &mut out[d..d + len]);
+                friction_jac(p, &mut out[st.jac_friction - off..]);
+                if self.spec.enforce_tire_saturation {
+                    if cx.oracle {
+                        saturation_jac(p, lay, k, x, &mut out[st.jac_sat - off..]);
+                    } else {
+                        saturation_jac_fast(p, lay, k, x, &mut out[st.jac_sat - off..]);
+                    }
+                }
+                if k >= 1 {
+                    rate_jac(p, &mut out[st.jac_rate - off..]);
+                }
             }
-        };
-        this.for_stages(vals, |st| st.jac_defect, stage);
+        }
+    }
+
+    /// [`Self::stage_eval`] in the copy compiled for this CPU. [`Self::for_stages`] takes
+    /// closures, and a closure does not take the target features of the AVX2 entry point
+    /// it is inlined into: calling the stage body directly from one ran it as baseline
+    /// code. Same bits either way.
+    #[inline(always)]
+    fn stage_for_cpu(&self, what: StageEval, x: &[f64], k: usize, out: &mut [f64], off: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2.
+            return unsafe { self.stage_eval_avx2(what, x, k, out, off) };
+        }
+        self.stage_eval(what, x, k, out, off)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn stage_eval_avx2(
+        &self,
+        what: StageEval,
+        x: &[f64],
+        k: usize,
+        out: &mut [f64],
+        off: usize,
+    ) {
+        self.stage_eval(what, x, k, out, off)
     }
 
     /// Runs `stage(k, out, off)` for k = 0..N over `out`, whose entries are grouped by stage

@@ -909,16 +909,22 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                         }
                     }
                 };
+                let simd = self.simd;
                 worker::lock(shared).join(&mut job, || {
-                    let out = sweep.run(&asm, |k| {
-                        let need = big - k + 1;
-                        wait_until(|| {
-                            done.load(Ordering::Acquire) >= need || failed.load(Ordering::Acquire)
-                        });
-                        if done.load(Ordering::Acquire) < need {
-                            panic!("the helper thread's assembly panicked");
-                        }
-                    });
+                    let out = sweep.run_for_cpu(
+                        &asm,
+                        |k| {
+                            let need = big - k + 1;
+                            wait_until(|| {
+                                done.load(Ordering::Acquire) >= need
+                                    || failed.load(Ordering::Acquire)
+                            });
+                            if done.load(Ordering::Acquire) < need {
+                                panic!("the helper thread's assembly panicked");
+                            }
+                        },
+                        simd,
+                    );
                     cancel.store(true, Ordering::Relaxed);
                     out
                 })?
@@ -1440,6 +1446,35 @@ struct Sweep<'a, const NX: usize, const NU: usize, const NZ: usize> {
 }
 
 impl<const NX: usize, const NU: usize, const NZ: usize> Sweep<'_, NX, NU, NZ> {
+    /// [`Self::run`] in the copy compiled for this CPU when `simd`: the pipelined
+    /// factorization runs the sweep inside a closure, which does not take the target
+    /// features of the AVX2 entry point it sits in. Same bits either way.
+    #[inline(always)]
+    fn run_for_cpu(
+        self,
+        asm: &Assembly<'_, NX, NZ>,
+        ready: impl FnMut(usize),
+        simd: bool,
+    ) -> Result<(SMatrix<f64, NX, NX>, Inertia), KktError> {
+        #[cfg(target_arch = "x86_64")]
+        if simd {
+            // SAFETY: `simd` is only true when the CPU reports AVX2.
+            return unsafe { self.run_avx2(asm, ready) };
+        }
+        let _ = simd;
+        self.run(asm, ready)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2")]
+    unsafe fn run_avx2(
+        self,
+        asm: &Assembly<'_, NX, NZ>,
+        ready: impl FnMut(usize),
+    ) -> Result<(SMatrix<f64, NX, NX>, Inertia), KktError> {
+        self.run(asm, ready)
+    }
+
     /// Sweeps k = N-1 .. 0, calling `ready(k)` before it reads unit k (and `ready(N)`
     /// first); returns P_0 and the inertia so far.
     #[inline(always)]

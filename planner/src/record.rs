@@ -314,21 +314,6 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, GuessKind),
         ));
     }
     let n = input.n_intervals as usize;
-    if n == 0 {
-        return Err(bad("n_intervals", "must be at least 1".into()));
-    }
-    for (field, v) in [
-        ("kappa", &input.kappa),
-        ("e_min", &input.e_min),
-        ("e_max", &input.e_max),
-    ] {
-        if v.len() != n + 1 {
-            return Err(bad(
-                field,
-                format!("{} values, expected n_intervals + 1 = {}", v.len(), n + 1),
-            ));
-        }
-    }
     let guess = GuessKind::parse(&input.guess).ok_or_else(|| {
         bad(
             "guess",

@@ -911,7 +911,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 };
                 let simd = self.simd;
                 worker::lock(shared).join(&mut job, || {
-                    let out = sweep.run_for_cpu(
+                    // Stops the helper however the sweep ends (result, early stop or panic).
+                    let _cancel = CancelOnDrop(&cancel);
+                    sweep.run_for_cpu(
                         &asm,
                         |k| {
                             let need = big - k + 1;
@@ -924,9 +926,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                             }
                         },
                         simd,
-                    );
-                    cancel.store(true, Ordering::Relaxed);
-                    out
+                    )
                 })?
             }
         };
@@ -1433,6 +1433,15 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
         } else {
             Err(KktError::Unsupported)
         }
+    }
+}
+
+/// Sets the pipelined factorization's cancel flag when dropped.
+struct CancelOnDrop<'a>(&'a AtomicBool);
+
+impl Drop for CancelOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
     }
 }
 

@@ -140,11 +140,6 @@ impl Workspace {
         self.simd = on && crate::cpu::avx2_available();
     }
 
-    /// Whether the vector kernels run in their AVX2 copy.
-    pub fn simd(&self) -> bool {
-        self.simd
-    }
-
     /// Allocates every buffer for this NLP; `log_capacity` bounds the iteration log.
     pub fn new<P: Nlp + ?Sized>(nlp: &P, log_capacity: usize) -> Self {
         let NlpDims {

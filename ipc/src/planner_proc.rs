@@ -232,6 +232,8 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
     let mut latest: Option<VehicleState> = None;
     let mut planned_seq: Option<u64> = None;
     let mut rejected = Rejected::default();
+    // Valid states outside the planner's domain (see `InitialDomain`), not planned.
+    let mut outside = 0u64;
     let mut states_received = 0u64;
     let mut published = 0u64;
     let (mut warm, mut cold, mut failed) = (0u64, 0u64, 0u64);
@@ -302,7 +304,29 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         x0[ix::T] = 0.0;
         x0[ix::V] = nudge_into(x0[ix::V], v_min, v_max);
         x0[ix::E] = nudge_into(x0[ix::E], cy.road.e_min[0], cy.road.e_max[0]);
-        x0[ix::VWR] = x0[ix::VWR].max(1e-3);
+        let vehicle = &sc.spec.vehicle;
+        x0[ix::VWR] = x0[ix::VWR].max(vehicle.v_wr_min + 1e-3);
+        let w = vehicle.m * vehicle.g;
+        x0[ix::DFZ] = nudge_into(x0[ix::DFZ], -w, w);
+        // What no nudge can fix (heading across the road, yaw rate past the envelope) is
+        // not planned: the solver would only spend its caps on it.
+        if let Err(e) = cy
+            .planner
+            .spec()
+            .initial_domain(&cy.road.kappa, &cy.road.e_min, &cy.road.e_max)
+            .check(&x0)
+        {
+            outside += 1;
+            if outside <= 10 || outside.is_multiple_of(1000) {
+                eprintln!(
+                    "planner: not planning from vehicle state seq {} ({outside} so far): {e}",
+                    state.seq
+                );
+            }
+            cy.prev_ok = false;
+            planned_seq = Some(state.seq);
+            continue;
+        }
         let shift = s_track - cy.prev_origin;
         let sound = args.warm_start == "on"
             && cy.prev_ok
@@ -439,7 +463,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         }
     }
     eprintln!(
-        "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged), {} states dropped",
+        "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged), {} states dropped, {outside} outside the planner's domain",
         rejected.total()
     );
     let recording = match (recorder, &args.record) {
@@ -466,6 +490,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         "not_converged": failed,
         "states_received": states_received,
         "states_rejected": rejected.total(),
+        "states_outside_domain": outside,
         "states_rejected_by_reason": {
             "version": rejected.version,
             "road": rejected.road,

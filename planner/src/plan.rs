@@ -184,6 +184,12 @@ impl<const N: usize> Planner<N> {
                 });
             }
         }
+        // Checked before anything changes: a refused input leaves the planner as it was.
+        crate::ocp::spec::check_road(kappa, e_min, e_max, N)?;
+        self.nlp
+            .spec()
+            .initial_domain(kappa, e_min, e_max)
+            .check(&x0)?;
         // In place: same sparsity, so the solver's symbolic analysis stays valid.
         self.nlp.update_road(kappa, e_min, e_max)?;
         self.nlp.set_initial(InitialState::Fixed(x0));

@@ -486,6 +486,42 @@ fn collision_scenario_errors() {
         msg.contains("common.initial_state.V_mps = 45: must lie within the speed bounds [5, 40]"),
         "{msg}"
     );
+    // The rest of the model's domain, each entry named.
+    for (test, from, to, want) in [
+        (
+            "ca-dpsi",
+            "dpsi_rad = 0.0",
+            "dpsi_rad = 1.6",
+            "common.initial_state.dpsi_rad = 1.6: is not within (-pi/2, pi/2)",
+        ),
+        (
+            "ca-beta",
+            "beta_rad = 0.0",
+            "beta_rad = 3.0",
+            "common.initial_state.beta_rad = 3: must lie within the sideslip envelope [-1.5, 1.5]",
+        ),
+        (
+            "ca-r",
+            "r_radps = 0.0",
+            "r_radps = -50.0",
+            "common.initial_state.r_radps = -50: must lie within the yaw-rate envelope [-10, 10]",
+        ),
+        (
+            "ca-vwr",
+            "V_wr_mps = 25.0",
+            "V_wr_mps = -5.0",
+            "common.initial_state.V_wr_mps = -5: must be at least V_wr_min = 0 (R10)",
+        ),
+        (
+            "ca-dfz",
+            "dFz_N = 0.0",
+            "dFz_N = 1e6",
+            "common.initial_state.dFz_N = 1000000: must lie within +-m g = [",
+        ),
+    ] {
+        let msg = ca_error(test, from, to, None);
+        assert!(msg.contains(want), "{msg}");
+    }
     let msg = ca_error("ca-select", "", "", Some("forgiving"));
     assert!(
         msg.ends_with("no scenario named \"forgiving\"; available: critical"),

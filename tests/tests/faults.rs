@@ -281,7 +281,9 @@ fn planner_death_makes_tracker_flag_stale_and_stop() {
 }
 
 /// (c) States with NaN or absurd values (and wrong version/road) are counted by reason and
-/// dropped: the planner never solves from them, and still plans from the next good state.
+/// dropped, and a valid state outside the planner's domain (heading across the road) is
+/// counted and not planned: the planner never solves from them, and still plans from the
+/// next good state.
 #[test]
 fn bad_states_are_counted_and_never_planned_from() {
     let _serial = serial();
@@ -290,7 +292,7 @@ fn bad_states_are_counted_and_never_planned_from() {
     plan.wait_line("planner: up", START);
     let mut inj = command("inject_state");
     inj.args(["--service-prefix", &p])
-        .args(["--send", "nan,range,version,road,good"])
+        .args(["--send", "nan,range,version,road,sideways,good"])
         .args(["--gap-s", "0.5", "--wait-plan-s", "60"]);
     let inj = Proc::spawn("inject_state", inj).finish(Duration::from_secs(120));
 
@@ -302,12 +304,14 @@ fn bad_states_are_counted_and_never_planned_from() {
     assert_eq!(by["version"], 1, "{sp}");
     assert_eq!(by["road"], 1, "{sp}");
     assert_eq!(sp["states_rejected"], 4, "{sp}");
-    assert_eq!(sp["states_received"], 5, "{sp}");
-    // Exactly one plan, from the good state (seq 1004): none from the bad ones.
+    assert_eq!(sp["states_received"], 6, "{sp}");
+    // The sideways state is a valid message outside the planner's domain: not planned.
+    assert_eq!(sp["states_outside_domain"], 1, "{sp}");
+    // Exactly one plan, from the good state (seq 1005): none from the bad ones.
     assert_eq!(sp["plans_published"], 1, "{sp}");
     assert_eq!(
         inj["plans_from_state_seq"],
-        serde_json::json!([1004]),
+        serde_json::json!([1005]),
         "{inj}"
     );
 }

@@ -2,9 +2,10 @@
 //! sequence of vehicle states, some deliberately invalid, to a running `planner_proc`, and
 //! reports which of them the planner planned from.
 //!
-//! `--send nan,range,version,road,good`: one state per entry (`nan`: e = NaN; `range`:
-//! V = 1e6 m/s; `version`: wrong wire version; `road`: wrong road id; `good`: a valid
-//! cruise state). Between entries it waits `--gap-s` (long enough for the planner to have
+//! `--send nan,range,version,road,sideways,good`: one state per entry (`nan`: e = NaN;
+//! `range`: V = 1e6 m/s; `version`: wrong wire version; `road`: wrong road id; `sideways`:
+//! a valid message heading 2 rad off the road, outside the planner's domain; `good`: a
+//! valid cruise state). Between entries it waits `--gap-s` (long enough for the planner to have
 //! solved, had it accepted the state). After the last entry it waits up to `--wait-plan-s`
 //! for a trajectory planned from a good state. Prints one JSON line: the seq of each sent
 //! state and the `from_state_seq` of every trajectory received. Exit 2 on bad input, 1 on
@@ -38,7 +39,7 @@ struct Cli {
     /// iceoryx2 service-name prefix of the planner under test.
     #[arg(long)]
     service_prefix: String,
-    /// Comma-separated states to send: nan, range, version, road, good.
+    /// Comma-separated states to send: nan, range, version, road, sideways, good.
     #[arg(long, value_delimiter = ',', required = true)]
     send: Vec<String>,
     /// Pause after each state [s].
@@ -79,6 +80,8 @@ fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
             "range" => m.x[ix::V] = 1.0e6,
             "version" => m.version = MSG_VERSION + 100,
             "road" => m.road_id = sc.id ^ 1,
+            // A valid message the planner cannot plan from: heading across the road.
+            "sideways" => m.x[ix::DPSI] = 2.0,
             other => {
                 return Err(Error::Setup(format!(
                     "--send: unknown state kind {other:?}"

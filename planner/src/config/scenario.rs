@@ -9,6 +9,7 @@ use super::fields::{parse_toml, read_text, Fields};
 use super::tracks::{TrackInfo, TrackToml};
 use super::ConfigError;
 use crate::model::{ix, VehicleParams, NX};
+use crate::ocp::spec::InitialDomain;
 use crate::ocp::{InitialState, OcpSpec};
 use crate::track::{piecewise_constant, BoundsOverride, Profile, Road, Segment};
 use serde::Deserialize;
@@ -361,14 +362,13 @@ fn speeds(
     Ok((lo, hi))
 }
 
-/// The initial-state table. `road` gives the node-0 bounds and the speed bounds for the
-/// checks of a fixed state.
+/// The initial-state table. A fixed state is checked against the model's domain
+/// ([`InitialDomain`]) on the road at node 0, the speed bounds and the vehicle.
 fn initial_state(
     f: Fields<'_>,
     t: Option<InitialStateToml>,
     prefix: &str,
-    e_bounds0: (f64, f64),
-    v_bounds: (f64, f64),
+    domain: InitialDomain<'_>,
 ) -> Result<InitialState, ConfigError> {
     let t = f.req(t, prefix)?;
     let at = |k: &str| format!("{prefix}.{k}");
@@ -391,7 +391,7 @@ fn initial_state(
         return Ok(InitialState::Free);
     }
     let mut x = [0.0; NX];
-    for (k, idx) in [
+    let keys = [
         ("r_radps", ix::R),
         ("V_mps", ix::V),
         ("beta_rad", ix::BETA),
@@ -401,38 +401,17 @@ fn initial_state(
         ("dpsi_rad", ix::DPSI),
         ("s_m", ix::S),
         ("t_s", ix::T),
-    ] {
+    ];
+    for (k, idx) in keys {
         let v = given.iter().find(|(n, _)| *n == k).and_then(|(_, v)| *v);
         x[idx] = f.num(v, &at(k))?;
     }
-    for (k, idx) in [("s_m", ix::S), ("t_s", ix::T)] {
-        if x[idx] != 0.0 {
-            return Err(f.invalid(
-                &at(k),
-                x[idx],
-                "must be 0 (the horizon starts at s = 0, t = 0)",
-            ));
-        }
-    }
-    if !(v_bounds.0..=v_bounds.1).contains(&x[ix::V]) {
-        return Err(f.invalid(
-            &at("V_mps"),
-            x[ix::V],
-            format!(
-                "must lie within the speed bounds [{}, {}]",
-                v_bounds.0, v_bounds.1
-            ),
-        ));
-    }
-    if !(e_bounds0.0..=e_bounds0.1).contains(&x[ix::E]) {
-        return Err(f.invalid(
-            &at("e_m"),
-            x[ix::E],
-            format!(
-                "must lie within the lateral bounds at s = 0: [{}, {}]",
-                e_bounds0.0, e_bounds0.1
-            ),
-        ));
+    if let Some((i, problem)) = domain.problem(&x) {
+        let key = keys
+            .iter()
+            .find(|(_, idx)| *idx == i)
+            .map_or("?", |(k, _)| k);
+        return Err(f.invalid(&at(key), x[i], problem));
     }
     Ok(InitialState::Fixed(x))
 }
@@ -779,13 +758,13 @@ fn finish(
     vehicle: VehicleParams,
 ) -> Result<OcpSpec, ConfigError> {
     check_road(f, &name, &road)?;
-    let initial = initial_state(
-        f,
-        initial,
-        initial_field,
-        (road.e_min[0], road.e_max[0]),
-        (v_min, v_max),
-    )?;
+    let domain = InitialDomain {
+        vehicle: Some(&vehicle),
+        v: (v_min, v_max),
+        e0: (road.e_min[0], road.e_max[0]),
+        kappa0: road.kappa.first().copied(),
+    };
+    let initial = initial_state(f, initial, initial_field, domain)?;
     Ok(OcpSpec {
         name,
         n_intervals: road.n_intervals(),

@@ -1,7 +1,8 @@
 //! The problem data of one OCP instance (paper eq. 3): road sampled at the nodes, bounds,
 //! options and the vehicle. Built from config + track; consumed by a transcription.
 
-use crate::model::{ParamError, VehicleParams, NX};
+use crate::model::{ix, ParamError, VehicleParams, NX, STATE_NAMES};
+use crate::ocp::path_constraints::{FREE_BETA0_MAX, FREE_R0_MAX};
 
 /// How the initial state x_0 is treated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,33 +81,7 @@ impl OcpSpec {
                 format!("{} is not a finite positive length", self.length),
             ));
         }
-        for (name, v) in [
-            ("kappa", &self.kappa),
-            ("e_min", &self.e_min),
-            ("e_max", &self.e_max),
-        ] {
-            if v.len() != n + 1 {
-                return Err(bad(
-                    name.into(),
-                    format!("{} entries, expected n_intervals + 1 = {}", v.len(), n + 1),
-                ));
-            }
-            if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-                return Err(bad(
-                    format!("{name}[{k}]"),
-                    format!("{} is not finite", v[k]),
-                ));
-            }
-        }
-        if let Some(k) = (0..=n).find(|&k| self.e_min[k] >= self.e_max[k]) {
-            return Err(bad(
-                format!("e_min[{k}]"),
-                format!(
-                    "{} is not below e_max[{k}] = {}",
-                    self.e_min[k], self.e_max[k]
-                ),
-            ));
-        }
+        check_road(&self.kappa, &self.e_min, &self.e_max, n)?;
         if !(self.v_min.is_finite() && self.v_min > 0.0) {
             return Err(bad(
                 "v_min".into(),
@@ -119,13 +94,139 @@ impl OcpSpec {
                 format!("{} does not exceed v_min = {}", self.v_max, self.v_min),
             ));
         }
+        self.vehicle.check()?;
         if let InitialState::Fixed(x0) = &self.initial {
-            if let Some(i) = x0.iter().position(|x| !x.is_finite()) {
-                return Err(bad(format!("x0[{i}]"), format!("{} is not finite", x0[i])));
+            self.initial_domain(&self.kappa, &self.e_min, &self.e_max)
+                .check(x0)?;
+        }
+        Ok(())
+    }
+
+    /// The domain of a fixed initial state on this spec's speeds and vehicle, with the
+    /// node-0 road values of `kappa`, `e_min`, `e_max` (a replan brings its own road).
+    pub fn initial_domain(&self, kappa: &[f64], e_min: &[f64], e_max: &[f64]) -> InitialDomain<'_> {
+        InitialDomain {
+            vehicle: Some(&self.vehicle),
+            v: (self.v_min, self.v_max),
+            e0: (
+                e_min.first().copied().unwrap_or(f64::NAN),
+                e_max.first().copied().unwrap_or(f64::NAN),
+            ),
+            kappa0: kappa.first().copied(),
+        }
+    }
+}
+
+/// Checks road samples: `n + 1` finite entries each and e_min < e_max at every node. The
+/// error names the vector and the node. Allocates only for the error.
+pub fn check_road(kappa: &[f64], e_min: &[f64], e_max: &[f64], n: usize) -> Result<(), SpecError> {
+    let bad = |field: String, problem: String| SpecError::Field { field, problem };
+    for (name, v) in [("kappa", kappa), ("e_min", e_min), ("e_max", e_max)] {
+        if v.len() != n + 1 {
+            return Err(bad(
+                name.into(),
+                format!("{} entries, expected n_intervals + 1 = {}", v.len(), n + 1),
+            ));
+        }
+        if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+            return Err(bad(
+                format!("{name}[{k}]"),
+                format!("{} is not finite", v[k]),
+            ));
+        }
+    }
+    if let Some(k) = (0..=n).find(|&k| e_min[k] >= e_max[k]) {
+        return Err(bad(
+            format!("e_min[{k}]"),
+            format!("{} is not below e_max[{k}] = {}", e_min[k], e_max[k]),
+        ));
+    }
+    Ok(())
+}
+
+/// Where a fixed initial state x_0 must lie for the model and the OCP to make sense. A
+/// state outside it is refused with the entry named, instead of being handed to the
+/// solver, which would spend its caps and report a failure.
+#[derive(Debug, Clone, Copy)]
+pub struct InitialDomain<'a> {
+    /// The vehicle, for V_wr >= V_wr_min (R10) and |dFz| <= m g; `None` skips those two
+    /// (a scenario file is read before its vehicle).
+    pub vehicle: Option<&'a VehicleParams>,
+    /// Speed bounds (v_min, v_max) [m/s].
+    pub v: (f64, f64),
+    /// Lateral bounds at node 0 (e_min[0], e_max[0]) [m].
+    pub e0: (f64, f64),
+    /// Road curvature at node 0 [1/m], if known.
+    pub kappa0: Option<f64>,
+}
+
+impl InitialDomain<'_> {
+    /// The first entry of `x0` outside the domain, as (state index, what is wrong, worded
+    /// to follow the value):
+    /// finite values; s_0 = t_0 = 0 (the horizon starts there); V and e within the OCP's
+    /// bounds; 1 - kappa_0 e_0 > 0 (e short of the road's curvature centre); |r| and
+    /// |beta| within the free-mode envelopes ([`FREE_R0_MAX`], [`FREE_BETA0_MAX`]);
+    /// |dpsi| < pi/2, so the vehicle moves forward along the road (s' = V cos(dpsi) /
+    /// (1 - kappa e) > 0, paper eq. 1); with the vehicle, V_wr >= V_wr_min and |dFz| <= m g.
+    /// Allocates only for the error.
+    pub fn problem(&self, x0: &[f64; NX]) -> Option<(usize, String)> {
+        if let Some(i) = x0.iter().position(|x| !x.is_finite()) {
+            return Some((i, "is not finite".into()));
+        }
+        let out = |i: usize, why: String| Some((i, why));
+        for i in [ix::S, ix::T] {
+            if x0[i] != 0.0 {
+                return out(i, "must be 0 (the horizon starts at s = 0, t = 0)".into());
             }
         }
-        self.vehicle.check()?;
-        Ok(())
+        let within = |i: usize, (lo, hi): (f64, f64), what: &str| {
+            if (lo..=hi).contains(&x0[i]) {
+                None
+            } else {
+                out(i, format!("must lie within {what}[{lo}, {hi}]"))
+            }
+        };
+        let r_max = FREE_R0_MAX;
+        let beta_max = FREE_BETA0_MAX;
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        within(ix::V, self.v, "the speed bounds ")
+            .or_else(|| within(ix::E, self.e0, "the lateral bounds at s = 0: "))
+            .or_else(|| {
+                let k = self.kappa0?;
+                let room = 1.0 - k * x0[ix::E];
+                (room <= 0.0).then(|| {
+                    (ix::E, format!("is beyond the road's curvature centre (1 - kappa e = {room} at kappa = {k})"))
+                })
+            })
+            .or_else(|| within(ix::R, (-r_max, r_max), "the yaw-rate envelope "))
+            .or_else(|| within(ix::BETA, (-beta_max, beta_max), "the sideslip envelope "))
+            .or_else(|| {
+                (x0[ix::DPSI].abs() >= half_pi).then(|| {
+                    (ix::DPSI, "is not within (-pi/2, pi/2): the vehicle must move forward along the road".into())
+                })
+            })
+            .or_else(|| {
+                let p = self.vehicle?;
+                if x0[ix::VWR] < p.v_wr_min {
+                    return out(
+                        ix::VWR,
+                        format!("must be at least V_wr_min = {} (R10)", p.v_wr_min),
+                    );
+                }
+                let w = p.m * p.g;
+                within(ix::DFZ, (-w, w), "+-m g = ")
+            })
+    }
+
+    /// [`Self::problem`] as a [`SpecError`] naming `x0.<state>`.
+    pub fn check(&self, x0: &[f64; NX]) -> Result<(), SpecError> {
+        match self.problem(x0) {
+            None => Ok(()),
+            Some((i, why)) => Err(SpecError::Field {
+                field: format!("x0.{}", STATE_NAMES[i]),
+                problem: format!("{} {why}", x0[i]),
+            }),
+        }
     }
 }
 
@@ -167,7 +268,80 @@ mod tests {
         assert!(refused(|s| s.e_min[3] = 2.0).contains("e_min[3]"));
         assert!(refused(|s| s.v_min = 0.0).contains("v_min"));
         assert!(refused(|s| s.v_max = 0.5).contains("v_max"));
-        assert!(refused(|s| s.initial = InitialState::Fixed([f64::NAN; NX])).contains("x0[0]"));
+        assert!(refused(|s| s.initial = InitialState::Fixed([f64::NAN; NX])).contains("x0.r"));
         assert!(refused(|s| s.vehicle.c_f = -1.0).contains("tire.C_f"));
+    }
+
+    /// A steady straight-line state at 20 m/s in the lane centre.
+    fn cruise() -> [f64; NX] {
+        let mut x = [0.0; NX];
+        x[ix::V] = 20.0;
+        x[ix::VWR] = 20.0;
+        x
+    }
+
+    /// The message for a fixed initial state `cruise()` changed at `i` to `v`.
+    fn refused_x0(i: usize, v: f64) -> String {
+        let mut x = cruise();
+        x[i] = v;
+        refused(|s| s.initial = InitialState::Fixed(x))
+    }
+
+    #[test]
+    fn a_fixed_initial_state_outside_the_models_domain_is_refused_by_name() {
+        let mut s = spec();
+        s.initial = InitialState::Fixed(cruise());
+        assert_eq!(s.check(), Ok(()));
+        for (i, v, field) in [
+            (ix::S, 1.0, "x0.s"),
+            (ix::T, -0.5, "x0.t"),
+            (ix::V, 0.5, "x0.V"),
+            (ix::V, 61.0, "x0.V"),
+            (ix::E, 2.5, "x0.e"),
+            (ix::R, 10.5, "x0.r"),
+            (ix::BETA, -1.6, "x0.beta"),
+            (ix::DPSI, 100.0, "x0.dpsi"),
+            (ix::DPSI, -std::f64::consts::FRAC_PI_2, "x0.dpsi"),
+            (ix::VWR, -5.0, "x0.V_wr"),
+            (ix::DFZ, 1e6, "x0.dFz"),
+        ] {
+            let msg = refused_x0(i, v);
+            assert!(msg.contains(field), "{field} = {v}: {msg}");
+        }
+        // Just inside every bound passes.
+        for (i, v) in [
+            (ix::R, -10.0),
+            (ix::BETA, 1.5),
+            (ix::DPSI, 1.57),
+            (ix::VWR, 0.0),
+        ] {
+            let mut s = spec();
+            let mut x = cruise();
+            x[i] = v;
+            s.initial = InitialState::Fixed(x);
+            assert_eq!(s.check(), Ok(()), "{i} = {v}");
+        }
+        // On a curve of radius 1.5 m (kappa = 1/1.5), e = 1.6 is past the centre.
+        let mut s = spec();
+        s.kappa[0] = 1.0 / 1.5;
+        let mut x = cruise();
+        x[ix::E] = 1.6;
+        s.initial = InitialState::Fixed(x);
+        assert!(s
+            .check()
+            .expect_err("past the centre")
+            .to_string()
+            .contains("curvature centre"));
+        // Without a vehicle, V_wr and dFz are not judged.
+        let d = InitialDomain {
+            vehicle: None,
+            v: (1.0, 60.0),
+            e0: (-2.0, 2.0),
+            kappa0: None,
+        };
+        let mut x = cruise();
+        x[ix::VWR] = -5.0;
+        x[ix::DFZ] = 1e6;
+        assert_eq!(d.problem(&x), None);
     }
 }

@@ -95,8 +95,12 @@ struct Track {
 
 /// Runs the tracker process until done; returns its summary as JSON.
 pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
-    let ok = args.plant_dt_s > 0.0
+    // plant_dt >= 1e-6 s keeps the substeps per control step (control_dt <= 0.01) at most
+    // 10^4; a finite first-plan timeout keeps the wait for the first plan bounded.
+    let ok = args.plant_dt_s >= 1e-6
         && args.control_dt_s >= args.plant_dt_s
+        && args.first_plan_timeout_s > 0.0
+        && args.first_plan_timeout_s.is_finite()
         && args.publish_dt_s >= args.control_dt_s
         && args.publish_dt_s <= 10.0
         && args.control_dt_s <= 0.01
@@ -110,7 +114,7 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         && args.v0.is_finite();
     if !ok {
         return Err(TrackerProcError::Setup(
-            "need 0 < plant_dt <= control_dt <= 0.01, control_dt <= publish_dt <= 10, finite stale_after > 0, time_scale in [1e-3, 1e3], finite duration > 0, distance >= 0, finite v0 > 3".into(),
+            "need 1e-6 <= plant_dt <= control_dt <= 0.01, control_dt <= publish_dt <= 10, finite first_plan_timeout > 0, finite stale_after > 0, time_scale in [1e-3, 1e3], finite duration > 0, distance >= 0, finite v0 > 3".into(),
         ));
     }
     let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)

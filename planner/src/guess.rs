@@ -295,13 +295,12 @@ pub fn equilibrium(
             }
         }
     }
-    let status = if cost <= 1e-16 {
-        "optimal"
-    } else {
-        "not_converged"
-    };
-    if cost > 1e-16 {
-        return Err(GuessError::NotConverged { status, cost });
+    // A NaN cost is not converged either.
+    if cost.is_nan() || cost > 1e-16 {
+        return Err(GuessError::NotConverged {
+            status: "not_converged",
+            cost,
+        });
     }
     let zp: [f64; NG] = std::array::from_fn(|i| z[i] * Z_NOMINAL[i]);
     let mut x = [0.0; NX];
@@ -310,7 +309,7 @@ pub fn equilibrium(
         x,
         u: [zp[5], zp[6], zp[7]],
         cost,
-        status,
+        status: "optimal",
         iterations,
     })
 }

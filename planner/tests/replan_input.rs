@@ -22,6 +22,20 @@ fn replan_names_bad_road_samples_and_states_and_changes_nothing() {
         .replan(&kappa, &e_min, &e_max, x0, ReplanGuess::Equilibrium)
         .unwrap();
     let states = p.states().to_vec();
+    let spec = p.spec().clone();
+    // After a refused call: the same problem data and the same last result, bit for bit.
+    let unchanged = |p: &Planner<100>, what: &str| {
+        assert!(
+            *p.spec() == spec,
+            "{what}: the refused replan changed the problem"
+        );
+        let same = p
+            .states()
+            .iter()
+            .zip(&states)
+            .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
+        assert!(same, "{what}: the refused replan changed the last result");
+    };
 
     let mut bad_kappa = kappa.clone();
     bad_kappa[3] = f64::NAN;
@@ -29,6 +43,7 @@ fn replan_names_bad_road_samples_and_states_and_changes_nothing() {
         .replan(&bad_kappa, &e_min, &e_max, x0, ReplanGuess::Equilibrium)
         .expect_err("NaN curvature");
     assert!(err.to_string().contains("kappa[3]"), "{err}");
+    unchanged(&p, "NaN curvature");
 
     let mut crossed = e_min.clone();
     crossed[7] = e_max[7] + 1.0;
@@ -36,6 +51,7 @@ fn replan_names_bad_road_samples_and_states_and_changes_nothing() {
         .replan(&kappa, &crossed, &e_max, x0, ReplanGuess::Equilibrium)
         .expect_err("no corridor");
     assert!(err.to_string().contains("e_min[7]"), "{err}");
+    unchanged(&p, "no corridor");
 
     for (i, v, field) in [
         (ix::DPSI, 2.0, "x0.dpsi"),
@@ -49,18 +65,14 @@ fn replan_names_bad_road_samples_and_states_and_changes_nothing() {
             .replan(&kappa, &e_min, &e_max, x, ReplanGuess::Equilibrium)
             .expect_err(field);
         assert!(err.to_string().contains(field), "{err}");
+        unchanged(&p, field);
     }
 
-    // The refused calls changed nothing: the same replan gives the same bits.
+    // And the same replan again gives the same bits.
     let again = p
         .replan(&kappa, &e_min, &e_max, x0, ReplanGuess::Equilibrium)
         .unwrap();
     assert_eq!(again.iterations, first.iterations);
     assert_eq!(again.status, first.status);
-    let same = p
-        .states()
-        .iter()
-        .zip(&states)
-        .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
-    assert!(same, "a refused replan changed the next result");
+    unchanged(&p, "the good replan after them");
 }

@@ -64,8 +64,14 @@ enum Error {
 }
 
 fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
-    if !(cli.gap_s >= 0.0 && cli.connect_timeout_s > 0.0 && cli.wait_plan_s >= 0.0) {
-        return Err(Error::Setup("timeouts must be >= 0".into()));
+    let finite = [cli.gap_s, cli.connect_timeout_s, cli.wait_plan_s]
+        .iter()
+        .all(|t| t.is_finite());
+    if !(finite && cli.gap_s >= 0.0 && cli.connect_timeout_s > 0.0 && cli.wait_plan_s >= 0.0) {
+        return Err(Error::Setup(
+            "--gap-s and --wait-plan-s must be finite and >= 0, --connect-timeout-s finite and > 0"
+                .into(),
+        ));
     }
     let sc = Scenario::load(&cli.scenario, &cli.vehicle, &cli.solver)
         .map_err(|e| Error::Setup(e.to_string()))?;

@@ -209,6 +209,9 @@ impl Default for Settings {
     }
 }
 
+/// Largest wall-clock cap of one solve [s].
+pub const MAX_TIME_S: f64 = 3600.0;
+
 /// A setting outside its valid range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("solver setting `{field}` = {value}: {expected}")]
@@ -248,7 +251,7 @@ impl Settings {
             ("barrier_tol_factor", self.barrier_tol_factor),
         ];
         for (field, v) in pos {
-            if v.is_nan() || v <= 0.0 || (v.is_infinite() && field != "max_time_s") {
+            if v.is_nan() || v <= 0.0 || v.is_infinite() {
                 return Err(SettingsError {
                     field,
                     value: v.to_string(),
@@ -334,20 +337,60 @@ impl Settings {
                 expected: "must lie in [0, 1e-2)",
             });
         }
+        // The caps bound the worst-case time of a solve (settings may come from a
+        // recording): iterations, and within one iteration at most max_refactorizations
+        // factorizations and max_backtracks trial evaluations.
+        if self.max_time_s > MAX_TIME_S {
+            return Err(SettingsError {
+                field: "max_time_s",
+                value: self.max_time_s.to_string(),
+                expected: "must not exceed 3600 s",
+            });
+        }
         let caps = [
-            ("max_iter", self.max_iter),
-            ("max_backtracks", self.max_backtracks),
-            ("max_inertia_corrections", self.max_inertia_corrections),
-            ("max_refactorizations", self.max_refactorizations),
-            ("max_ls_failures", self.max_ls_failures),
-            ("max_restoration_steps", self.max_restoration_steps),
+            (
+                "max_iter",
+                self.max_iter,
+                100_000,
+                "must be an integer in 1..=100000",
+            ),
+            (
+                "max_backtracks",
+                self.max_backtracks,
+                100,
+                "must be an integer in 1..=100 (2^-100: no step left)",
+            ),
+            (
+                "max_inertia_corrections",
+                self.max_inertia_corrections,
+                100,
+                "must be an integer in 1..=100",
+            ),
+            (
+                "max_refactorizations",
+                self.max_refactorizations,
+                100,
+                "must be an integer in 1..=100",
+            ),
+            (
+                "max_ls_failures",
+                self.max_ls_failures,
+                1000,
+                "must be an integer in 1..=1000",
+            ),
+            (
+                "max_restoration_steps",
+                self.max_restoration_steps,
+                100_000,
+                "must be an integer in 1..=100000",
+            ),
         ];
-        for (field, v) in caps {
-            if v == 0 || v > 1_000_000 {
+        for (field, v, max, expected) in caps {
+            if v == 0 || v > max {
                 return Err(SettingsError {
                     field,
                     value: v.to_string(),
-                    expected: "must be an integer in 1..=1000000",
+                    expected,
                 });
             }
         }
@@ -410,5 +453,21 @@ mod tests {
         assert_eq!(refused(|s| s.delta_w_decrease = 0.5), "delta_w_decrease");
         assert_eq!(refused(|s| s.tau_min = 1.0), "tau_min");
         assert_eq!(refused(|s| s.max_iter = 0), "max_iter");
+        // The caps bound a solve's time: no infinite clock, no unbounded loops.
+        assert_eq!(refused(|s| s.max_time_s = f64::INFINITY), "max_time_s");
+        assert_eq!(refused(|s| s.max_time_s = 3601.0), "max_time_s");
+        assert_eq!(refused(|s| s.max_iter = 100_001), "max_iter");
+        assert_eq!(refused(|s| s.max_backtracks = 101), "max_backtracks");
+        assert_eq!(
+            refused(|s| s.max_refactorizations = 101),
+            "max_refactorizations"
+        );
+        let at_caps = Settings {
+            max_time_s: MAX_TIME_S,
+            max_backtracks: 100,
+            max_iter: 100_000,
+            ..Default::default()
+        };
+        assert_eq!(at_caps.validate(), Ok(()));
     }
 }

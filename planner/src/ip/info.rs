@@ -80,7 +80,7 @@ impl StepKind {
 pub struct IterLog {
     /// Iteration number.
     pub iter: usize,
-    /// Objective.
+    /// Objective at this iterate (the one whose errors the row holds).
     pub objective: f64,
     /// Max constraint violation.
     pub inf_pr: f64,

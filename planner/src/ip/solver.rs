@@ -244,6 +244,8 @@ impl<K: KktSolver> Solver<K> {
             }
 
             let err = compute_errors(&mut self.ws, mu);
+            // The log row of this iteration describes this iterate: its errors and objective.
+            let f_iter = self.ws.f;
             // Valid until the step is accepted (see `accept`).
             self.ws.grad_lag_fresh = true;
             let score = self.score(&err);
@@ -329,6 +331,7 @@ impl<K: KktSolver> Solver<K> {
                     e_log.s_d = 1.0;
                     self.push_log(
                         iter,
+                        f_iter,
                         &e_log,
                         mu_r,
                         alpha,
@@ -393,6 +396,7 @@ impl<K: KktSolver> Solver<K> {
                         resto = Some(Restoration::new(norm2(&self.ws.c), mu.min(0.1)));
                         self.push_log(
                             iter,
+                            f_iter,
                             &err,
                             mu,
                             0.0,
@@ -526,6 +530,7 @@ impl<K: KktSolver> Solver<K> {
             };
             self.push_log(
                 iter,
+                f_iter,
                 &err,
                 mu,
                 alpha,
@@ -990,6 +995,7 @@ impl<K: KktSolver> Solver<K> {
     fn push_log(
         &mut self,
         iter: usize,
+        objective: f64,
         err: &Errors,
         mu: f64,
         alpha: f64,
@@ -1001,7 +1007,7 @@ impl<K: KktSolver> Solver<K> {
         if self.ws.log.len() < self.ws.log.capacity() {
             self.ws.log.push(IterLog {
                 iter,
-                objective: self.ws.f,
+                objective,
                 inf_pr: err.inf_pr,
                 inf_du: err.inf_du / err.s_d,
                 compl: err.compl / err.s_c,

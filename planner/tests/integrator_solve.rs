@@ -69,11 +69,36 @@ fn solve_oval<S: DefectScheme>(scheme: S) -> Outcome {
     }
 }
 
-/// Every solve ends with a status within the caps and a finite iterate.
+/// Every solve ends with a finite iterate and a status that says what it is: a success
+/// is feasible (to the acceptable level), and a failure is one of the failure statuses
+/// with the violation it left reported (not `invalid_input`: the data is sound).
 fn honest(o: &Outcome) {
-    assert!(o.info.iterations <= o.max_iter);
-    assert!(o.secs < 300.0);
     assert!(o.states.iter().flatten().all(|v| v.is_finite()));
+    assert!(o.info.max_violation.is_finite() && o.info.objective.is_finite());
+    if o.info.status.is_success() {
+        assert!(o.info.max_violation <= 1e-4, "{:?}", o.info);
+    } else {
+        assert!(
+            matches!(
+                o.info.status,
+                Status::IterationLimit
+                    | Status::TimeLimit
+                    | Status::LocallyInfeasible
+                    | Status::NumericalFailure
+            ),
+            "{:?}",
+            o.info
+        );
+    }
+    if o.info.status == Status::IterationLimit {
+        assert_eq!(o.info.iterations, o.max_iter);
+    }
+    let _ = o.secs;
+}
+
+/// Relative distance of t_N from a reference.
+fn rel(t_n: f64, reference: f64) -> f64 {
+    ((t_n - reference) / reference).abs()
 }
 
 #[test]
@@ -82,42 +107,53 @@ fn crank_nicolson_solves_the_oval() {
     honest(&o);
     assert_eq!(o.info.status, Status::Optimal, "{:?}", o.info);
     assert!(o.info.max_violation < 1e-6);
+    // The reference's 4-decimal rounding is 4e-6 relative; measured 13.0200.
     assert!(
-        ((o.t_n - T_REF_CN) / T_REF_CN).abs() < 0.005,
+        rel(o.t_n, T_REF_CN) < 3e-4,
         "t_N = {}, reference {T_REF_CN}",
         o.t_n
     );
 }
 
+/// Fourth order: lands on the continuous optimum, next to the CN value (measured 13.0190).
 #[test]
 fn gauss_legendre2_solves_the_oval() {
     let o = solve_oval(GaussLegendre2);
     honest(&o);
-    if o.info.status == Status::Optimal {
-        assert!(
-            ((o.t_n - T_REF_IE) / T_REF_IE).abs() < 0.01,
-            "t_N = {}",
-            o.t_n
-        );
-    }
+    assert_eq!(o.info.status, Status::Optimal, "{:?}", o.info);
+    assert!(rel(o.t_n, T_REF_CN) < 5e-4, "t_N = {}", o.t_n);
+    assert!(
+        rel(o.t_n, T_REF_IE) > 2e-3,
+        "t_N = {} is the first-order value",
+        o.t_n
+    );
 }
 
+/// Explicit midpoint (second order): converges near the CN value (measured 13.0370).
 #[test]
 fn rk2_oval_ends_honestly() {
     let o = solve_oval(ExplicitRk2);
     honest(&o);
+    assert_eq!(o.info.status, Status::Optimal, "{:?}", o.info);
+    assert!(rel(o.t_n, T_REF_CN) < 3e-3, "t_N = {}", o.t_n);
 }
 
 #[test]
 fn rk4_oval_ends_honestly() {
-    // The reference implementation fails here (IPOPT Restoration_Failed); no success is
-    // asserted, only an honest ending.
+    // The reference implementation fails here (IPOPT Restoration_Failed), and so does
+    // ours (numerical_failure after 317 iterations, violation 0.24): a failure status
+    // with the violation it left, never a claimed success.
     let o = solve_oval(ExplicitRk4);
     honest(&o);
+    if o.info.status.is_success() {
+        assert!(rel(o.t_n, T_REF_CN) < 3e-3, "t_N = {}", o.t_n);
+    } else {
+        assert!(o.info.max_violation > 1e-4, "{:?}", o.info);
+    }
 }
 
 /// The multistep schemes (start-up included) converge to the Crank-Nicolson optimum within
-/// 0.5 % (last measured: BDF4 13.0211 s, BDF6 13.0244 s, AM3 13.0200 s).
+/// 0.1 % (last measured: BDF4 13.0210 s, BDF6 13.0247 s, AM3 13.0201 s).
 #[test]
 fn multistep_schemes_solve_the_oval() {
     for scheme in [
@@ -128,10 +164,6 @@ fn multistep_schemes_solve_the_oval() {
         let o = solve_oval(scheme);
         honest(&o);
         assert_eq!(o.info.status, Status::Optimal, "{scheme:?}: {:?}", o.info);
-        assert!(
-            ((o.t_n - T_REF_CN) / T_REF_CN).abs() < 0.005,
-            "{scheme:?}: t_N = {}",
-            o.t_n
-        );
+        assert!(rel(o.t_n, T_REF_CN) < 1e-3, "{scheme:?}: t_N = {}", o.t_n);
     }
 }

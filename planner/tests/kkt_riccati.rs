@@ -189,6 +189,10 @@ fn check_same_steps(initial: InitialState, delta_c: f64, seed: u64) {
                 .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
             let scale = inf_norm(x).max(inf_norm(y)).max(b_norm);
             eprintln!("{name}: residual {res:e} (scale {scale:e})");
+            assert!(
+                res <= 1e-9 * scale,
+                "{name} does not solve the system: residual {res:e} against {scale:e} (trial {trial})"
+            );
         }
         // ... and agree.
         let sol_norm = inf_norm(&xs).max(inf_norm(&ys));

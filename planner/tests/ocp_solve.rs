@@ -6,7 +6,7 @@ use std::path::Path;
 use planner::config::{load_scenario, load_solver, load_vehicle};
 use planner::guess::GuessKind;
 use planner::ip::Status;
-use planner::model::ix;
+use planner::model::{ix, tire_forces};
 use planner::ocp::fixtures::{oval_reference_path, ReferenceCsv};
 use planner::plan::Planner;
 
@@ -23,6 +23,9 @@ fn oval_planner() -> Planner<100> {
 
 /// Reference optimum of the independent CasADi + IPOPT implementation (reference README).
 const T_REF: f64 = 13.0699;
+/// Largest RMS speed difference to the reference away from node 0 [m/s] (measured
+/// 3.8e-4 m/s: the two implementations agree to the CSV's rounding).
+const RMS_MAX: f64 = 5e-3;
 
 #[test]
 fn oval_from_equilibrium_matches_reference() {
@@ -30,8 +33,9 @@ fn oval_from_equilibrium_matches_reference() {
     let info = p.solve(GuessKind::Equilibrium);
     assert_eq!(info.status, Status::Optimal, "{info:?}");
     let t_n = p.states()[100][ix::T];
+    // Measured 1.2e-6 relative; the reference's 4-decimal rounding is 4e-6.
     assert!(
-        ((t_n - T_REF) / T_REF).abs() < 0.005,
+        ((t_n - T_REF) / T_REF).abs() < 3e-4,
         "t_N = {t_n}, reference {T_REF}"
     );
     assert!(
@@ -51,7 +55,8 @@ fn oval_from_equilibrium_matches_reference() {
         .map(|(x, v)| (x[ix::V] - v).powi(2))
         .sum();
     let rms = (sq / 100.0).sqrt();
-    assert!(rms < 0.5, "speed RMS difference {rms} m/s");
+    eprintln!("speed RMS difference to the reference: {rms} m/s");
+    assert!(rms < RMS_MAX, "speed RMS difference {rms} m/s");
 }
 
 #[test]
@@ -64,6 +69,31 @@ fn oval_optimum_respects_physics() {
         assert!(x[ix::E] >= spec.e_min[k] - 1e-6 && x[ix::E] <= spec.e_max[k] + 1e-6);
         assert!(x[ix::V] >= spec.v_min - 1e-6 && x[ix::V] <= spec.v_max + 1e-6);
         assert!(x[ix::VWR] >= -1e-6);
+    }
+    // The tires at every node: positive axle loads, and neither axle's force beyond its
+    // friction circle mu F_z (the Fiala model saturates there; a sign or load-transfer
+    // error would break it).
+    let veh = &spec.vehicle;
+    for (k, (x, u)) in p.states().iter().zip(p.controls()).enumerate() {
+        let t = tire_forces(veh, x, u);
+        assert!(
+            t.fzf > 0.0 && t.fzr > 0.0,
+            "node {k}: loads {} {}",
+            t.fzf,
+            t.fzr
+        );
+        let front = t.fxf.hypot(t.fyf);
+        let rear = t.fxr.hypot(t.fyr);
+        assert!(
+            front <= veh.mu * t.fzf * (1.0 + 1e-9),
+            "node {k}: front {front} > mu Fz {}",
+            veh.mu * t.fzf
+        );
+        assert!(
+            rear <= veh.mu * t.fzr * (1.0 + 1e-9),
+            "node {k}: rear {rear} > mu Fz {}",
+            veh.mu * t.fzr
+        );
     }
     // Time increases along the path (dt/ds = 1/sdot > 0).
     for w in p.states().windows(2) {
@@ -78,9 +108,27 @@ fn zero_guess_ends_with_an_honest_status_within_caps() {
     let mut p = oval_planner();
     let eq = p.solve(GuessKind::Equilibrium);
     let zero = p.solve(GuessKind::Zero);
-    // A status within the caps, never a hang or panic; the iterate returned is finite.
-    assert!(zero.iterations <= p.solver().settings().max_iter);
+    // A status that says what it is, never a hang or panic; the iterate returned is
+    // finite. (Measured: numerical_failure after 72 iterations, violation 9.3.)
     assert!(p.states().iter().flatten().all(|v| v.is_finite()));
+    if zero.status.is_success() {
+        assert!(zero.max_violation <= 1e-4, "{zero:?}");
+    } else {
+        assert!(
+            matches!(
+                zero.status,
+                Status::IterationLimit
+                    | Status::TimeLimit
+                    | Status::LocallyInfeasible
+                    | Status::NumericalFailure
+            ),
+            "{zero:?}"
+        );
+        assert!(
+            zero.max_violation > 1e-4,
+            "a failure at a feasible point: {zero:?}"
+        );
+    }
     // The zero guess starts far more infeasible (V = 0 makes the 1/V terms singular).
     assert!(zero.initial_violation > 100.0 * eq.initial_violation);
     // Where the iteration starts (pushed into the bounds, V >= v_min) the violation is
@@ -90,7 +138,7 @@ fn zero_guess_ends_with_an_honest_status_within_caps() {
     assert!(eq.start_violation < 2.0, "{}", eq.start_violation);
     if zero.status == Status::Optimal {
         let t_n = p.states()[100][ix::T];
-        assert!(((t_n - T_REF) / T_REF).abs() < 0.005, "t_N = {t_n}");
+        assert!(((t_n - T_REF) / T_REF).abs() < 3e-4, "t_N = {t_n}");
     }
 }
 

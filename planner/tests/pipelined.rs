@@ -82,6 +82,12 @@ fn pipelined_solves_equal_one_thread_bit_for_bit_and_allocate_nothing() {
     for segment in [None, Some("S07")] {
         let mut one = planner(segment, 1);
         let mut two = planner(segment, 2);
+        // The comparison has teeth only if the second planner really pipelines.
+        assert!(one.solver().kkt().worker().is_none());
+        assert!(
+            two.solver().kkt().worker().is_some(),
+            "threads = 2 not pipelined"
+        );
         let a = one.solve(GuessKind::Equilibrium);
         let b = two.solve(GuessKind::Equilibrium);
         assert_eq!(a.status, Status::Optimal, "{segment:?}");

@@ -52,7 +52,7 @@ fn ten_segments_optimal_and_match_reference() {
         assert_eq!(info.status, Status::Optimal, "{name}: {info:?}");
         let t = p.states()[100][ix::T];
         assert!(
-            ((t - t_ref) / t_ref).abs() < 0.005,
+            ((t - t_ref) / t_ref).abs() < 3e-4,
             "{name}: t_N {t} vs {t_ref}"
         );
         assert!(info.max_violation < 1e-6, "{name}: {}", info.max_violation);
@@ -77,13 +77,13 @@ fn forgiving_swerve_matches_reference_with_and_without_saturation() {
     let (info, p) = solve("collision_avoidance.toml", "forgiving", Some(true));
     assert_eq!(info.status, Status::Optimal, "{info:?}");
     let t = p.states()[100][ix::T];
-    assert!(((t - 3.6467) / 3.6467).abs() < 0.005, "t_N {t}");
+    assert!(((t - 3.6467) / 3.6467).abs() < 3e-4, "t_N {t}");
     assert!(peak_beta(&p) < 0.15, "peak beta {}", peak_beta(&p));
 
     let (info, p) = solve("collision_avoidance.toml", "forgiving", Some(false));
     assert_eq!(info.status, Status::Optimal, "{info:?}");
     let t = p.states()[100][ix::T];
-    assert!(((t - 3.6460) / 3.6460).abs() < 0.005, "t_N {t}");
+    assert!(((t - 3.6460) / 3.6460).abs() < 3e-4, "t_N {t}");
 }
 
 #[test]
@@ -91,7 +91,7 @@ fn critical_layout_drifts_without_saturation() {
     let (info, p) = solve("ca_critical.toml", "critical", Some(false));
     assert_eq!(info.status, Status::Optimal, "{info:?}");
     let t = p.states()[100][ix::T];
-    assert!(((t - 6.1193) / 6.1193).abs() < 0.005, "t_N {t}");
+    assert!(((t - 6.1193) / 6.1193).abs() < 3e-4, "t_N {t}");
     assert!(
         peak_beta(&p) > 0.35,
         "peak beta {} (no drift)",

@@ -109,6 +109,13 @@ fn recorder_never_blocks_and_counts_every_drop() {
         }
     }
     assert_eq!(sent + r.dropped(), total);
+    // A one-slot queue flooded with 2000 records: a recorder that waited for its writer
+    // would drop nothing.
+    assert!(
+        r.dropped() > 0 && sent >= 1,
+        "sent {sent}, dropped {}",
+        r.dropped()
+    );
     let stats = r.finish().unwrap();
     assert_eq!(stats.outputs, sent);
     assert_eq!(stats.dropped, total - sent);

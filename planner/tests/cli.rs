@@ -219,7 +219,10 @@ fn study_stiffness_json_names_the_peak_and_its_state() {
     assert_eq!(v["status"], "optimal");
     assert_eq!(v["jacobian"], "spatial");
     assert_eq!(v["nodes"].as_array().unwrap().len(), 101);
-    assert!(v["peak_ratio"].as_f64().unwrap() > 1.0);
+    // Paper Sec. IV: the dynamics are stiff along the optimum, the ratio far above the
+    // threshold 10^3 (ours peaks at about 1.1e5, in the wheel-speed mode).
+    let peak = v["peak_ratio"].as_f64().unwrap();
+    assert!(peak > 1e3, "peak stiffness ratio {peak} is not stiff");
     let state = v["peak_dominant_state"].as_str().unwrap();
     assert!(planner::model::STATE_NAMES.contains(&state), "{state}");
     let k = v["peak_node"].as_u64().unwrap() as usize;
@@ -281,7 +284,11 @@ fn study_barrier_json_has_every_rule() {
             r["max_factorizations_per_iter"].as_u64().unwrap() <= cap,
             "{r}"
         );
-        assert!(r["iterations"].as_u64().unwrap() <= 500, "{r}");
+        // A run that used every iteration says so (500 = max_iter of solver.toml).
+        if r["iterations"].as_u64().unwrap() >= 500 {
+            let st = r["status"].as_str().unwrap();
+            assert!(st == "iteration_limit" || st == "acceptable", "{r}");
+        }
     }
     let monotone = runs.iter().find(|r| r["barrier"] == "monotone").unwrap();
     assert_eq!(monotone["status"], "optimal");

@@ -507,6 +507,43 @@ fn every_rule_solves_nonconvex_problems() {
     }
 }
 
+/// The merit-function line search (paper eq. 5) and the second-order correction are
+/// alternatives to the default filter: each must solve the small problems too.
+#[test]
+fn merit_globalization_and_second_order_correction_solve_the_small_problems() {
+    use planner::ip::Globalization;
+    let variants = [
+        ("merit", Globalization::Merit, false),
+        ("filter + soc", Globalization::Filter, true),
+        ("merit + soc", Globalization::Merit, true),
+    ];
+    for (name, globalization, soc) in variants {
+        let settings = Settings {
+            globalization,
+            second_order_correction: soc,
+            ..Settings::default()
+        };
+        let mut p = hs071();
+        let mut solver = Solver::new(&p, settings).expect("setup");
+        let info = solver.solve(&mut p);
+        assert_eq!(info.status, Status::Optimal, "{name} hs071: {info:?}");
+        assert!(
+            (info.objective - 17.014_017_3).abs() < 1e-5,
+            "{name}: f = {}",
+            info.objective
+        );
+        let mut r = rosenbrock();
+        let mut solver = Solver::new(&r, settings).expect("setup");
+        let info = solver.solve(&mut r);
+        let x = solver.x();
+        assert_eq!(info.status, Status::Optimal, "{name} rosenbrock: {info:?}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-4 && (x[1] - 1.0).abs() < 1e-4,
+            "{name}: x = {x:?}"
+        );
+    }
+}
+
 /// The refactorization cap: with room for a single inertia-correcting attempt, an
 /// iteration whose Hessian is indefinite must take the convexified fallback step, never
 /// factorize more often than the cap, and still converge.

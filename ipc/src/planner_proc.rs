@@ -2,10 +2,11 @@
 //! at a fixed rate over the road ahead, and publishes each trajectory written in place
 //! into a loaned shared-memory sample.
 //!
-//! Allocation: receiving, validating, sampling the road window, shifting the warm start,
-//! writing and sending the sample allocate nothing. [`planner::plan::Planner::replan`]
-//! still rebuilds its transcription and solver per plan (allocates) until the in-place
-//! `update_road`/`set_initial` land; see the note there.
+//! Allocation: receiving, validating, sampling the road window, the domain check, shifting
+//! the warm start, writing and sending the sample allocate nothing, and
+//! [`planner::plan::Planner::replan`] updates the problem in place and solves without
+//! allocating (`planner/tests/solve_alloc.rs`). Only logging a refused or failed state and
+//! recording (`--record`, which copies the input for the writer thread) allocate.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -20,7 +21,7 @@ use planner::plan::{Planner, ReplanGuess};
 use crate::clock::monotonic_ns;
 use crate::msg::{status_code, Invalid, VehicleState, HORIZON_N, MSG_VERSION};
 use crate::road::{RoadWindow, Scenario};
-use crate::services::{ipc_err, IpcError, Services};
+use crate::services::{ipc_err, wait_events, IpcError, Services};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
 
@@ -256,11 +257,11 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         let wait = next_tick
             .saturating_duration_since(now)
             .clamp(Duration::from_millis(1), Duration::from_millis(100));
-        if let Err(e) = listener.timed_wait_all(|_| {}, wait) {
+        if let Err(e) = wait_events(&listener, wait) {
             if svc.termination_requested() {
                 break;
             }
-            return Err(ipc_err("wait for vehicle state")(e).into());
+            return Err(e.into());
         }
         while let Some(sample) = sub.receive().map_err(ipc_err("receive vehicle state"))? {
             let m: &VehicleState = sample.payload();

@@ -186,6 +186,46 @@ impl Services {
     }
 }
 
+/// Waits until `listener` has an event or `timeout` has passed, then takes every pending
+/// event. Allocates nothing: iceoryx2 0.9.3's own `timed_wait_one`/`timed_wait_all` on the
+/// unix-datagram event listener format an error message on every call (one 160-byte
+/// allocation per wait, `ipc/tests/hot_path_alloc.rs`), so this polls the listener's file
+/// descriptor and then drains it without blocking. A signal interrupting the wait returns
+/// `Ok` (the caller checks for termination).
+pub fn wait_events(
+    listener: &Listener<Svc>,
+    timeout: core::time::Duration,
+) -> Result<(), IpcError> {
+    // SAFETY: the descriptor stays owned by `listener`, which outlives this call; poll only
+    // reads it.
+    let fd = unsafe { listener.file_descriptor().native_handle() };
+    let mut pfd = libc::pollfd {
+        fd,
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    let ts = libc::timespec {
+        tv_sec: timeout.as_secs().min(i32::MAX as u64) as libc::time_t,
+        tv_nsec: timeout.subsec_nanos() as libc::c_long,
+    };
+    // SAFETY: one valid pollfd and a valid timespec for the duration of the call; no
+    // signal mask is changed (null).
+    let r = unsafe { libc::ppoll(&mut pfd, 1, &ts, core::ptr::null()) };
+    if r < 0 {
+        let err = std::io::Error::last_os_error();
+        if err.kind() != std::io::ErrorKind::Interrupted {
+            return Err(IpcError {
+                step: "wait for events",
+                msg: err.to_string(),
+            });
+        }
+        return Ok(());
+    }
+    listener
+        .try_wait_all(|_| {})
+        .map_err(ipc_err("take pending events"))
+}
+
 /// Publishes a vehicle state (stamped now) and wakes listeners. Allocates nothing.
 pub fn publish_state(
     publisher: &Publisher<Svc, VehicleState, ()>,

@@ -11,7 +11,7 @@ use crate::clock::monotonic_ns;
 use crate::msg::{Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED};
 use crate::plant::Plant;
 use crate::road::Scenario;
-use crate::services::{ipc_err, publish_state, IpcError, Services};
+use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
 use crate::tracker::{brake_to_stop, reference, track, Gains};
@@ -193,12 +193,12 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         let wait = next_pub
             .saturating_duration_since(Instant::now())
             .clamp(Duration::from_micros(100), Duration::from_millis(100));
-        if let Err(e) = listener.timed_wait_all(|_| {}, wait) {
+        if let Err(e) = wait_events(&listener, wait) {
             if svc.termination_requested() {
                 end_reason = "stop requested";
                 break;
             }
-            return Err(ipc_err("wait for trajectory")(e).into());
+            return Err(e.into());
         }
         while let Some(sample) = sub.receive().map_err(ipc_err("receive trajectory"))? {
             let m: &Trajectory = sample.payload();

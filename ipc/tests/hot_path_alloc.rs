@@ -1,0 +1,117 @@
+//! The planner cycle's IPC and road work allocate nothing after start-up: publishing and
+//! receiving a vehicle state, waiting on its event, validating it, sampling the road
+//! window, the domain check of the initial state, and loaning, writing, sending and
+//! receiving a trajectory. iceoryx2 0.10 allocates on every loan (`../shared/notes/
+//! crates.md`): this test re-checks the pinned 0.9.3, and any later upgrade. It found that
+//! 0.9.3's timed listener wait allocates on every call, hence `services::wait_events`.
+
+use std::path::Path;
+use std::time::Duration;
+
+use ipc::msg::{Trajectory, VehicleState, HORIZON_N, MSG_VERSION};
+use ipc::road::{RoadWindow, Scenario};
+use ipc::services::{publish_state, wait_events, Services};
+use planner::model::{ix, NU, NX};
+
+#[test]
+fn the_ipc_and_road_part_of_a_planner_cycle_allocates_nothing() {
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let sc = Scenario::load(
+        &root.join("scenarios/oval.toml"),
+        &root.join("vehicles/lc500.toml"),
+        &root.join("solver.toml"),
+    )
+    .unwrap();
+    let prefix = format!("trajopt_alloc_test_{}", std::process::id());
+    let svc = Services::open(&prefix, "alloc_test").unwrap();
+    let state_pub = svc.state_publisher().unwrap();
+    let state_sub = svc.state_subscriber().unwrap();
+    let state_not = svc.state_notifier().unwrap();
+    let state_lis = svc.state_listener().unwrap();
+    let traj_pub = svc.traj_publisher().unwrap();
+    let traj_sub = svc.traj_subscriber().unwrap();
+    let traj_not = svc.traj_notifier().unwrap();
+    let ds = sc.spec.ds();
+    let mut window = RoadWindow::default();
+    let mut x = [0.0; NX];
+    x[ix::V] = 15.0;
+    x[ix::VWR] = 15.0;
+    let mut plan = Trajectory {
+        version: MSG_VERSION,
+        status: 0,
+        seq: 0,
+        road_id: sc.id,
+        stamp_ns: 0,
+        from_state_seq: 0,
+        from_state_stamp_ns: 0,
+        iterations: 0,
+        warm_started: 0,
+        solve_time_s: 0.0,
+        s_origin: 0.0,
+        t_origin: 0.0,
+        ds,
+        x_from: x,
+        x: [x; HORIZON_N + 1],
+        u: [[0.0; NU]; HORIZON_N],
+    };
+
+    let mut received = 0u64;
+    let mut cycle = |seq: u64, plan: &mut Trajectory, window: &mut RoadWindow| {
+        let mut state_x = x;
+        state_x[ix::S] = seq as f64;
+        publish_state(
+            &state_pub,
+            &state_not,
+            VehicleState::new(sc.id, seq, 0, state_x),
+        )
+        .unwrap();
+        wait_events(&state_lis, Duration::from_millis(100)).unwrap();
+        let mut latest = None;
+        while let Some(sample) = state_sub.receive().unwrap() {
+            let m: &VehicleState = sample.payload();
+            m.validate(sc.id).unwrap();
+            latest = Some(*m);
+        }
+        let state = latest.expect("the state arrives");
+        sc.road.window(state.x[ix::S], ds, 0.0, 10.0, window);
+        let mut x0 = state.x;
+        x0[ix::S] = 0.0;
+        x0[ix::T] = 0.0;
+        sc.spec
+            .initial_domain(&window.kappa, &window.e_min, &window.e_max)
+            .check(&x0)
+            .unwrap();
+        plan.seq = seq;
+        plan.from_state_seq = state.seq;
+        let sample = traj_pub.loan_uninit().unwrap();
+        sample.write_payload(*plan).send().unwrap();
+        traj_not.notify().unwrap();
+        while let Some(t) = traj_sub.receive().unwrap() {
+            assert_eq!(t.payload().seq, seq);
+            received += 1;
+        }
+    };
+    // Start-up: every lazily sized buffer is sized here.
+    for seq in 0..5 {
+        cycle(seq, &mut plan, &mut window);
+    }
+    let info = allocation_counter::measure(|| {
+        for seq in 5..105 {
+            cycle(seq, &mut plan, &mut window);
+        }
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+    assert_eq!(received, 105);
+    // An empty wait (the timeout path) allocates nothing either.
+    let idle = allocation_counter::measure(|| {
+        for _ in 0..20 {
+            wait_events(&state_lis, Duration::from_micros(200)).unwrap();
+        }
+    });
+    assert_eq!(idle.count_total, 0, "{idle:?}");
+    // The counter does see allocations (the test can fail).
+    let seen = allocation_counter::measure(|| {
+        std::hint::black_box(vec![1u8; 16]);
+    });
+    assert!(seen.count_total > 0);
+}

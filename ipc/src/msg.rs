@@ -253,6 +253,28 @@ impl VehicleState {
 }
 
 impl Trajectory {
+    /// Every field zero (version 0: not a valid plan until filled in).
+    pub fn zeroed() -> Self {
+        Self {
+            version: 0,
+            status: 0,
+            seq: 0,
+            road_id: 0,
+            stamp_ns: 0,
+            from_state_seq: 0,
+            from_state_stamp_ns: 0,
+            iterations: 0,
+            warm_started: 0,
+            solve_time_s: 0.0,
+            s_origin: 0.0,
+            t_origin: 0.0,
+            ds: 0.0,
+            x_from: [0.0; NX],
+            x: [[0.0; NX]; HORIZON_N + 1],
+            u: [[0.0; NU]; HORIZON_N],
+        }
+    }
+
     /// Checks version, road, status code, that every number is finite and every state
     /// (the plan's nodes and `x_from`) within [`STATE_RANGES`]; errors name the node and
     /// entry. Allocates nothing.

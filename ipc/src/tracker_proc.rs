@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use planner::model::{ix, NU};
+use planner::model::ix;
 
 use crate::clock::monotonic_ns;
 use crate::msg::{Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED};
@@ -145,22 +145,8 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
 
     let mut plant = Plant::cruise(params, args.v0);
     let mut plan: Box<Trajectory> = Box::new(Trajectory {
-        version: 0,
-        status: 0,
-        seq: 0,
-        road_id: 0,
-        stamp_ns: 0,
-        from_state_seq: 0,
-        from_state_stamp_ns: 0,
-        iterations: 0,
-        warm_started: 0,
-        solve_time_s: 0.0,
-        s_origin: 0.0,
-        t_origin: 0.0,
         ds: 1.0,
-        x_from: [0.0; planner::model::NX],
-        x: [[0.0; planner::model::NX]; crate::msg::HORIZON_N + 1],
-        u: [[0.0; NU]; crate::msg::HORIZON_N],
+        ..Trajectory::zeroed()
     });
     let mut have_plan = false;
     let mut plans = 0u64;

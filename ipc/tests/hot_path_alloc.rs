@@ -11,7 +11,7 @@ use std::time::Duration;
 use ipc::msg::{Trajectory, VehicleState, HORIZON_N, MSG_VERSION};
 use ipc::road::{RoadWindow, Scenario};
 use ipc::services::{publish_state, wait_events, Services};
-use planner::model::{ix, NU, NX};
+use planner::model::{ix, NX};
 
 #[test]
 fn the_ipc_and_road_part_of_a_planner_cycle_allocates_nothing() {
@@ -38,21 +38,11 @@ fn the_ipc_and_road_part_of_a_planner_cycle_allocates_nothing() {
     x[ix::VWR] = 15.0;
     let mut plan = Trajectory {
         version: MSG_VERSION,
-        status: 0,
-        seq: 0,
         road_id: sc.id,
-        stamp_ns: 0,
-        from_state_seq: 0,
-        from_state_stamp_ns: 0,
-        iterations: 0,
-        warm_started: 0,
-        solve_time_s: 0.0,
-        s_origin: 0.0,
-        t_origin: 0.0,
         ds,
         x_from: x,
         x: [x; HORIZON_N + 1],
-        u: [[0.0; NU]; HORIZON_N],
+        ..Trajectory::zeroed()
     };
 
     let mut received = 0u64;

@@ -27,21 +27,10 @@ const STOP: u32 = u32::MAX;
 fn template() -> Box<Trajectory> {
     let mut t = Box::new(Trajectory {
         version: MSG_VERSION,
-        status: 0,
-        seq: 0,
-        road_id: 0,
-        stamp_ns: 0,
-        from_state_seq: 0,
-        from_state_stamp_ns: 0,
         iterations: 20,
-        warm_started: 0,
         solve_time_s: 0.05,
-        s_origin: 0.0,
-        t_origin: 0.0,
         ds: 2.6,
-        x_from: [0.0; NX],
-        x: [[0.0; NX]; HORIZON_N + 1],
-        u: [[0.0; NU]; HORIZON_N],
+        ..Trajectory::zeroed()
     });
     for (k, x) in t.x.iter_mut().enumerate() {
         x[1] = 15.0 + k as f64 * 0.01;

@@ -15,10 +15,10 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, Criterion};
 use ipc::clock::monotonic_ns;
-use ipc::msg::{Trajectory, VehicleState, HORIZON_N, MSG_VERSION};
+use ipc::msg::{Trajectory, VehicleState, MSG_VERSION};
 use ipc::services::{ipc_err, publish_state, wait_events, IpcError, Services};
 use ipc::stats::Latency;
-use planner::model::{NU, NX};
+use planner::model::NX;
 
 const ECHO_ENV: &str = "TRAJOPT_LATENCY_ECHO";
 /// `VehicleState::flags` value that stops the echo process.

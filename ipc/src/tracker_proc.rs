@@ -96,26 +96,68 @@ struct Track {
 /// Runs the tracker process until done; returns its summary as JSON.
 pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     // plant_dt >= 1e-6 s keeps the substeps per control step (control_dt <= 0.01) at most
-    // 10^4; a finite first-plan timeout keeps the wait for the first plan bounded.
-    let ok = args.plant_dt_s >= 1e-6
-        && args.control_dt_s >= args.plant_dt_s
-        && args.first_plan_timeout_s > 0.0
-        && args.first_plan_timeout_s.is_finite()
-        && args.publish_dt_s >= args.control_dt_s
-        && args.publish_dt_s <= 10.0
-        && args.control_dt_s <= 0.01
-        && args.stale_after_s > 0.0
-        && args.stale_after_s.is_finite()
-        && (1e-3..=1e3).contains(&args.time_scale)
-        && args.duration_s > 0.0
-        && args.duration_s.is_finite()
-        && args.distance_m >= 0.0
-        && args.v0 > 3.0
-        && args.v0.is_finite();
-    if !ok {
-        return Err(TrackerProcError::Setup(
-            "need 1e-6 <= plant_dt <= control_dt <= 0.01, control_dt <= publish_dt <= 10, finite first_plan_timeout > 0, finite stale_after > 0, time_scale in [1e-3, 1e3], finite duration > 0, distance >= 0, finite v0 > 3".into(),
-        ));
+    // 10^4; a finite first-plan timeout keeps the wait for the first plan bounded. The
+    // first failed check names its option.
+    let checks = [
+        (
+            "--plant-dt-s",
+            args.plant_dt_s,
+            args.plant_dt_s >= 1e-6 && args.plant_dt_s <= args.control_dt_s,
+            "must lie in [1e-6, --control-dt-s]",
+        ),
+        (
+            "--control-dt-s",
+            args.control_dt_s,
+            args.control_dt_s <= 0.01 && args.control_dt_s <= args.publish_dt_s,
+            "must lie in [--plant-dt-s, min(0.01, --publish-dt-s)]",
+        ),
+        (
+            "--publish-dt-s",
+            args.publish_dt_s,
+            args.publish_dt_s <= 10.0,
+            "must lie in [--control-dt-s, 10]",
+        ),
+        (
+            "--first-plan-timeout-s",
+            args.first_plan_timeout_s,
+            args.first_plan_timeout_s > 0.0 && args.first_plan_timeout_s.is_finite(),
+            "must be finite and > 0",
+        ),
+        (
+            "--stale-after-s",
+            args.stale_after_s,
+            args.stale_after_s > 0.0 && args.stale_after_s.is_finite(),
+            "must be finite and > 0",
+        ),
+        (
+            "--time-scale",
+            args.time_scale,
+            (1e-3..=1e3).contains(&args.time_scale),
+            "must lie in [1e-3, 1e3]",
+        ),
+        (
+            "--duration-s",
+            args.duration_s,
+            args.duration_s > 0.0 && args.duration_s.is_finite(),
+            "must be finite and > 0",
+        ),
+        (
+            "--distance-m",
+            args.distance_m,
+            args.distance_m >= 0.0 && args.distance_m.is_finite(),
+            "must be finite and >= 0",
+        ),
+        (
+            "--v0",
+            args.v0,
+            args.v0 > 3.0 && args.v0.is_finite(),
+            "must be finite and > 3 m/s",
+        ),
+    ];
+    if let Some((name, value, _, expected)) = checks.iter().find(|c| !c.2) {
+        return Err(TrackerProcError::Setup(format!(
+            "{name} = {value}: {expected}"
+        )));
     }
     let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
         .map_err(|e| TrackerProcError::Setup(e.to_string()))?;

@@ -67,3 +67,14 @@ fn the_equilibrium_guess_is_a_steady_state_of_the_model() {
         );
     }
 }
+
+/// A model that evaluates to NaN has no equilibrium: the guess reports it instead of
+/// returning a NaN cost as converged.
+#[test]
+fn a_nan_model_gives_no_equilibrium() {
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let mut p = load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
+    p.mu = f64::NAN;
+    let r = equilibrium(&p, 5.0, 70.0, 15.0);
+    assert!(r.is_err(), "{r:?}");
+}

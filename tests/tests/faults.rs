@@ -315,3 +315,40 @@ fn bad_states_are_counted_and_never_planned_from() {
         "{inj}"
     );
 }
+
+/// (d) Options that would hang a process or panic it (an endless wait, a plant step so
+/// small the substep count overflows, an infinite sleep) are refused before any IPC, with
+/// exit code 2 and the option named.
+#[test]
+fn options_that_would_hang_or_panic_are_refused_by_name() {
+    let cases: [(&str, &[&str], &str); 6] = [
+        ("tracker_proc", &["--plant-dt-s", "1e-9"], "--plant-dt-s"),
+        (
+            "tracker_proc",
+            &["--first-plan-timeout-s", "inf"],
+            "--first-plan-timeout-s",
+        ),
+        (
+            "tracker_proc",
+            &["--first-plan-timeout-s", "NaN"],
+            "--first-plan-timeout-s",
+        ),
+        ("tracker_proc", &["--time-scale", "1e9"], "--time-scale"),
+        (
+            "inject_state",
+            &["--send", "good", "--gap-s", "inf"],
+            "--gap-s",
+        ),
+        ("planner_proc", &["--rate-hz", "0"], "--rate-hz"),
+    ];
+    for (bin, args, option) in cases {
+        let out = command(bin)
+            .args(["--service-prefix", "trajopt_refused_options"])
+            .args(args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bin} {args:?}: {err}");
+        assert!(err.contains(option), "{bin} {args:?}: {err}");
+    }
+}

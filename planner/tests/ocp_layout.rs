@@ -71,7 +71,7 @@ fn rows_bounds_and_names() {
             "variable {i} fixed or empty: use equality rows"
         );
     }
-    assert!((gu[9 + 11] - 0.01 / 3.0).abs() < 1e-15); // eps_sat / 3 (saturation row scale)
+    assert!((gu[9 + 11] - 0.1).abs() < 1e-15); // eps_sat / 0.1
 }
 
 #[test]

@@ -15,12 +15,12 @@ pub const U_NOMINAL: [f64; NU] = [0.1, 1000.0, 1000.0];
 pub const OBJECTIVE_SCALE: f64 = 0.1;
 /// Scale of the front friction rows (R9) [N].
 pub const FRICTION_SCALE: f64 = 1000.0;
-/// Scale of the tire saturation rows (R5) [-]: the row is (sigma - sigma_sl) / 3. Measured
-/// over the 51 starts (oval, S01-S10, the 40 shifted ones; iterations / factorizations):
-/// 0.1 gave 3183 / 5059, 1.5 2796, 2.5 2794, 3 2457 / 3695, 4 2768, 5 2819, and 0.2, 0.5,
-/// 7 and more were worse or failed (thirteenth session). In the stalled phase of a solve the
-/// steps were cut short by the saturation and steering-rate slacks of the first nodes.
-pub const SATURATION_SCALE: f64 = 3.0;
+/// Scale of the tire saturation rows (R5) [-]: the row is (sigma - sigma_sl) / 0.1.
+/// Larger scales (1.5-5) made the free-start problems 12-23 % cheaper in iterations, but a
+/// fixed start near the tire limits then needs saturation multipliers up to 30x larger:
+/// at 3, the first plans of the oval replanning drive hit the iteration cap or failed
+/// numerically (`replay/tests/replanning_drive.rs`; thirteenth session, README).
+pub const SATURATION_SCALE: f64 = 0.1;
 
 /// Scaled value of a physical state vector.
 pub fn scale_state(x: &[f64; NX]) -> [f64; NX] {

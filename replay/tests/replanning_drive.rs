@@ -16,7 +16,7 @@ fn first_plans_of_the_drive_are_optimal_within_150_iterations() {
     let dir = common::temp_dir("drive12");
     let out = dir.join("drive.mcap");
     common::record(&out, 12);
-    let rec = Recording::from_bytes(&std::fs::read(&out).unwrap()).unwrap();
+    let rec = Recording::read(&out).unwrap();
     assert_eq!(rec.outputs.len(), 12);
     let its: Vec<u32> = rec.outputs.iter().map(|o| o.iterations).collect();
     for o in &rec.outputs {

@@ -9,7 +9,7 @@
 use super::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
 use super::fast;
 use super::layout::Layout;
-use super::scaling::{FRICTION_SCALE, SATURATION_SCALE, U_NOMINAL, X_NOMINAL};
+use super::scaling::{FRICTION_SCALE, U_NOMINAL, X_NOMINAL};
 use super::spec::{InitialState, OcpSpec};
 use crate::model::{iu, ix, saturation, VehicleParams, NU, NX};
 use num_dual::DualNum;
@@ -196,24 +196,38 @@ pub fn saturation_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, u
     }
 }
 
-/// Saturation rows (sigma - sigma_sl) / 0.1 (front, rear) at (x_k, u_k); upper bound
-/// eps_sat / 0.1.
-pub fn saturation_eval(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+/// Saturation rows (sigma - sigma_sl) / scale (front, rear) at (x_k, u_k); upper bound
+/// eps_sat / scale (`scale`: [`super::scaling::saturation_scale`]).
+pub fn saturation_eval(
+    p: &VehicleParams,
+    lay: &Layout,
+    k: usize,
+    z: &[f64],
+    scale: f64,
+    out: &mut [f64],
+) {
     let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
     let s = saturation(p, &x, &u);
-    out[0] = s[0] / SATURATION_SCALE;
-    out[1] = s[1] / SATURATION_SCALE;
+    out[0] = s[0] / scale;
+    out[1] = s[1] / scale;
 }
 
 /// Saturation Jacobian values in [`saturation_pattern`] order.
 #[inline(never)]
-pub fn saturation_jac(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+pub fn saturation_jac(
+    p: &VehicleParams,
+    lay: &Layout,
+    k: usize,
+    z: &[f64],
+    scale: f64,
+    out: &mut [f64],
+) {
     let (x, u) = sat_point(lay, k, z, seed1::<SATURATION_INPUTS>);
     let s = saturation(p, &x, &u);
     for row in 0..SATURATION_ROWS {
         let g = grad(&s[row]);
         for l in 0..SATURATION_INPUTS {
-            out[row * SATURATION_INPUTS + l] = g[l] / SATURATION_SCALE;
+            out[row * SATURATION_INPUTS + l] = g[l] / scale;
         }
     }
 }
@@ -221,12 +235,19 @@ pub fn saturation_jac(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out:
 /// Saturation Jacobian values in [`saturation_pattern`] order, by the fast structured path
 /// of [`crate::ocp::fast`].
 #[inline(always)]
-pub fn saturation_jac_fast(p: &VehicleParams, lay: &Layout, k: usize, z: &[f64], out: &mut [f64]) {
+pub fn saturation_jac_fast(
+    p: &VehicleParams,
+    lay: &Layout,
+    k: usize,
+    z: &[f64],
+    scale: f64,
+    out: &mut [f64],
+) {
     let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
     let s = fast::saturation_jacobian(p, &x, &u);
     for row in 0..SATURATION_ROWS {
         for l in 0..SATURATION_INPUTS {
-            out[row * SATURATION_INPUTS + l] = s[row].g[l] * SAT_NOMINAL[l] / SATURATION_SCALE;
+            out[row * SATURATION_INPUTS + l] = s[row].g[l] * SAT_NOMINAL[l] / scale;
         }
     }
 }
@@ -240,10 +261,11 @@ pub fn saturation_hess_fast(
     k: usize,
     z: &[f64],
     lambda: &[f64],
+    scale: f64,
     out: &mut [f64],
 ) {
     let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
-    let w = [lambda[0] / SATURATION_SCALE, lambda[1] / SATURATION_SCALE];
+    let w = [lambda[0] / scale, lambda[1] / scale];
     fast::saturation_hessian(p, &x, &u, w).write_lower(&SAT_NOMINAL, out);
 }
 
@@ -275,11 +297,12 @@ pub fn saturation_hess(
     k: usize,
     z: &[f64],
     lambda: &[f64],
+    scale: f64,
     out: &mut [f64],
 ) {
     let (x, u) = sat_point(lay, k, z, seed2::<SATURATION_INPUTS>);
     let s = saturation(p, &x, &u);
-    let phi = (s[0] * lambda[0] + s[1] * lambda[1]) / SATURATION_SCALE;
+    let phi = (s[0] * lambda[0] + s[1] * lambda[1]) / scale;
     lower_hessian(&phi, out);
 }
 

@@ -38,8 +38,8 @@ pub use multistep::{LinearMultistep, MultistepFamily};
 
 use super::layout::Layout;
 use super::path_constraints::*;
+use super::scaling::{saturation_scale, OBJECTIVE_SCALE, X_NOMINAL};
 use super::scaling::{scale_control, scale_state, unscale_control, unscale_state};
-use super::scaling::{OBJECTIVE_SCALE, SATURATION_SCALE, X_NOMINAL};
 use super::spec::{InitialState, OcpSpec};
 use crate::ip::kkt::{RowRole, StageStructure};
 use crate::ip::{Nlp, NlpDims};
@@ -239,6 +239,8 @@ struct HessParts<'a, S> {
     defect_slots: &'a [usize],
     sat_slots: &'a [usize],
     saturation: bool,
+    /// Scale of the saturation rows ([`saturation_scale`]).
+    sat_scale: f64,
 }
 
 impl<S: DefectScheme> HessParts<'_, S> {
@@ -311,9 +313,9 @@ impl<S: DefectScheme> HessParts<'_, S> {
             let out = &mut scratch[..SATURATION_HESS_NNZ];
             let (p, lay) = (self.cx.vehicle, &self.cx.layout);
             if self.cx.oracle {
-                saturation_hess(p, lay, k, x, lam, out);
+                saturation_hess(p, lay, k, x, lam, self.sat_scale, out);
             } else {
-                saturation_hess_fast(p, lay, k, x, lam, out);
+                saturation_hess_fast(p, lay, k, x, lam, self.sat_scale, out);
             }
             for (pos, (&s, &v)) in slots.iter().zip(scratch.iter()).enumerate() {
                 emit(base + pos, s, v);
@@ -773,7 +775,8 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             g_u[st.row_friction..st.row_friction + FRICTION_ROWS].fill(f64::INFINITY);
             if self.spec.enforce_tire_saturation {
                 g_l[st.row_sat..st.row_sat + SATURATION_ROWS].fill(f64::NEG_INFINITY);
-                g_u[st.row_sat..st.row_sat + SATURATION_ROWS].fill(p.eps_sat / SATURATION_SCALE);
+                g_u[st.row_sat..st.row_sat + SATURATION_ROWS]
+                    .fill(p.eps_sat / saturation_scale(&self.spec.initial));
                 // With a fixed (measured) x_0 the rear slip at node 0 depends on x_0 alone: a
                 // car that is already sliding would make the problem infeasible whatever the
                 // controls. That row gets a bound it never reaches (the front row stays: the
@@ -927,6 +930,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             defect_slots: &self.hess_defect_slots,
             sat_slots: &self.hess_sat_slots,
             saturation: self.spec.enforce_tire_saturation,
+            sat_scale: saturation_scale(&self.spec.initial),
         };
         let Some(shared) = self.worker.as_ref().filter(|_| self.stage_split > 0) else {
             for k in 0..N {
@@ -1033,7 +1037,8 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 self.scheme.eval(&cx, k, x, &mut out[d..d + S::ROWS]);
                 friction_eval(p, lay, k, x, &mut out[st.row_friction - off..]);
                 if self.spec.enforce_tire_saturation {
-                    saturation_eval(p, lay, k, x, &mut out[st.row_sat - off..]);
+                    let scale = saturation_scale(&self.spec.initial);
+                    saturation_eval(p, lay, k, x, scale, &mut out[st.row_sat - off..]);
                 }
                 if k >= 1 {
                     rate_eval(p, lay, k, x, &mut out[st.row_rate - off..]);
@@ -1044,10 +1049,12 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 self.scheme.jac(&cx, k, x, &mut out[d..d + len]);
                 friction_jac(p, &mut out[st.jac_friction - off..]);
                 if self.spec.enforce_tire_saturation {
+                    let scale = saturation_scale(&self.spec.initial);
+                    let out = &mut out[st.jac_sat - off..];
                     if cx.oracle {
-                        saturation_jac(p, lay, k, x, &mut out[st.jac_sat - off..]);
+                        saturation_jac(p, lay, k, x, scale, out);
                     } else {
-                        saturation_jac_fast(p, lay, k, x, &mut out[st.jac_sat - off..]);
+                        saturation_jac_fast(p, lay, k, x, scale, out);
                     }
                 }
                 if k >= 1 {

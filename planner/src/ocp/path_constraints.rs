@@ -196,77 +196,72 @@ pub fn saturation_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, u
     }
 }
 
-/// Saturation rows (sigma - sigma_sl) / scale (front, rear) at (x_k, u_k); upper bound
-/// eps_sat / scale (`scale`: [`super::scaling::saturation_scale`]).
-pub fn saturation_eval(
-    p: &VehicleParams,
-    lay: &Layout,
-    k: usize,
-    z: &[f64],
-    scale: f64,
-    out: &mut [f64],
-) {
-    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
-    let s = saturation(p, &x, &u);
-    out[0] = s[0] / scale;
-    out[1] = s[1] / scale;
+/// The tire saturation rows (sigma - sigma_sl) / scale (front, rear) of a problem: the
+/// vehicle, the layout and the row scale ([`super::scaling::saturation_scale`]; the upper
+/// bound is eps_sat / scale).
+#[derive(Debug, Clone, Copy)]
+pub struct SaturationRows<'a> {
+    /// Vehicle parameters.
+    pub p: &'a VehicleParams,
+    /// Variable layout.
+    pub lay: &'a Layout,
+    /// Row scale.
+    pub scale: f64,
 }
 
-/// Saturation Jacobian values in [`saturation_pattern`] order.
-#[inline(never)]
-pub fn saturation_jac(
-    p: &VehicleParams,
-    lay: &Layout,
-    k: usize,
-    z: &[f64],
-    scale: f64,
-    out: &mut [f64],
-) {
-    let (x, u) = sat_point(lay, k, z, seed1::<SATURATION_INPUTS>);
-    let s = saturation(p, &x, &u);
-    for row in 0..SATURATION_ROWS {
-        let g = grad(&s[row]);
-        for l in 0..SATURATION_INPUTS {
-            out[row * SATURATION_INPUTS + l] = g[l] / scale;
+impl SaturationRows<'_> {
+    /// Row values at (x_k, u_k).
+    pub fn eval(&self, k: usize, z: &[f64], out: &mut [f64]) {
+        let (x, u) = sat_point::<f64>(self.lay, k, z, |v, _| v);
+        let s = saturation(self.p, &x, &u);
+        out[0] = s[0] / self.scale;
+        out[1] = s[1] / self.scale;
+    }
+
+    /// Jacobian values in [`saturation_pattern`] order (num-dual oracle).
+    #[inline(never)]
+    pub fn jac(&self, k: usize, z: &[f64], out: &mut [f64]) {
+        let (x, u) = sat_point(self.lay, k, z, seed1::<SATURATION_INPUTS>);
+        let s = saturation(self.p, &x, &u);
+        for row in 0..SATURATION_ROWS {
+            let g = grad(&s[row]);
+            for l in 0..SATURATION_INPUTS {
+                out[row * SATURATION_INPUTS + l] = g[l] / self.scale;
+            }
         }
     }
-}
 
-/// Saturation Jacobian values in [`saturation_pattern`] order, by the fast structured path
-/// of [`crate::ocp::fast`].
-#[inline(always)]
-pub fn saturation_jac_fast(
-    p: &VehicleParams,
-    lay: &Layout,
-    k: usize,
-    z: &[f64],
-    scale: f64,
-    out: &mut [f64],
-) {
-    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
-    let s = fast::saturation_jacobian(p, &x, &u);
-    for row in 0..SATURATION_ROWS {
-        for l in 0..SATURATION_INPUTS {
-            out[row * SATURATION_INPUTS + l] = s[row].g[l] * SAT_NOMINAL[l] / scale;
+    /// Jacobian values in [`saturation_pattern`] order, by the fast structured path of
+    /// [`crate::ocp::fast`].
+    #[inline(always)]
+    pub fn jac_fast(&self, k: usize, z: &[f64], out: &mut [f64]) {
+        let (x, u) = sat_point::<f64>(self.lay, k, z, |v, _| v);
+        let s = fast::saturation_jacobian(self.p, &x, &u);
+        for row in 0..SATURATION_ROWS {
+            for l in 0..SATURATION_INPUTS {
+                out[row * SATURATION_INPUTS + l] = s[row].g[l] * SAT_NOMINAL[l] / self.scale;
+            }
         }
     }
-}
 
-/// Hessian of lambda_f g_f + lambda_r g_r in [`saturation_hess_pattern`] order by the fast
-/// structured path of [`crate::ocp::fast`] (overwrites `out`).
-#[inline(always)]
-pub fn saturation_hess_fast(
-    p: &VehicleParams,
-    lay: &Layout,
-    k: usize,
-    z: &[f64],
-    lambda: &[f64],
-    scale: f64,
-    out: &mut [f64],
-) {
-    let (x, u) = sat_point::<f64>(lay, k, z, |v, _| v);
-    let w = [lambda[0] / scale, lambda[1] / scale];
-    fast::saturation_hessian(p, &x, &u, w).write_lower(&SAT_NOMINAL, out);
+    /// Hessian of lambda_f g_f + lambda_r g_r in [`saturation_hess_pattern`] order by the
+    /// fast structured path of [`crate::ocp::fast`] (overwrites `out`).
+    #[inline(always)]
+    pub fn hess_fast(&self, k: usize, z: &[f64], lambda: &[f64], out: &mut [f64]) {
+        let (x, u) = sat_point::<f64>(self.lay, k, z, |v, _| v);
+        let w = [lambda[0] / self.scale, lambda[1] / self.scale];
+        fast::saturation_hessian(self.p, &x, &u, w).write_lower(&SAT_NOMINAL, out);
+    }
+
+    /// Hessian of lambda_f g_f + lambda_r g_r (the two rows of interval k), in
+    /// [`saturation_hess_pattern`] order (num-dual oracle; overwrites `out`).
+    #[inline(never)]
+    pub fn hess(&self, k: usize, z: &[f64], lambda: &[f64], out: &mut [f64]) {
+        let (x, u) = sat_point(self.lay, k, z, seed2::<SATURATION_INPUTS>);
+        let s = saturation(self.p, &x, &u);
+        let phi = (s[0] * lambda[0] + s[1] * lambda[1]) / self.scale;
+        lower_hessian(&phi, out);
+    }
 }
 
 /// Nominal of each saturation input [r, V, beta, V_wr, dFz, delta, T_bf].
@@ -286,24 +281,6 @@ pub fn saturation_hess_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usi
         let (a, b) = (sat_col(lay, k, i), sat_col(lay, k, j));
         push(a.max(b), a.min(b));
     }
-}
-
-/// Hessian of lambda_f g_f + lambda_r g_r (the two saturation rows of interval k), in
-/// [`saturation_hess_pattern`] order (overwrites `out`).
-#[inline(never)]
-pub fn saturation_hess(
-    p: &VehicleParams,
-    lay: &Layout,
-    k: usize,
-    z: &[f64],
-    lambda: &[f64],
-    scale: f64,
-    out: &mut [f64],
-) {
-    let (x, u) = sat_point(lay, k, z, seed2::<SATURATION_INPUTS>);
-    let s = saturation(p, &x, &u);
-    let phi = (s[0] * lambda[0] + s[1] * lambda[1]) / scale;
-    lower_hessian(&phi, out);
 }
 
 // ---------------------------------------------------------------- control rates

@@ -311,11 +311,15 @@ impl<S: DefectScheme> HessParts<'_, S> {
             let slots = &self.sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
             let lam = &lambda[st.row_sat..st.row_sat + SATURATION_ROWS];
             let out = &mut scratch[..SATURATION_HESS_NNZ];
-            let (p, lay) = (self.cx.vehicle, &self.cx.layout);
+            let rows = SaturationRows {
+                p: self.cx.vehicle,
+                lay: &self.cx.layout,
+                scale: self.sat_scale,
+            };
             if self.cx.oracle {
-                saturation_hess(p, lay, k, x, lam, self.sat_scale, out);
+                rows.hess(k, x, lam, out);
             } else {
-                saturation_hess_fast(p, lay, k, x, lam, self.sat_scale, out);
+                rows.hess_fast(k, x, lam, out);
             }
             for (pos, (&s, &v)) in slots.iter().zip(scratch.iter()).enumerate() {
                 emit(base + pos, s, v);
@@ -1023,6 +1027,15 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         );
     }
 
+    /// The tire saturation rows, scaled for this problem's initial state.
+    fn saturation_rows(&self) -> SaturationRows<'_> {
+        SaturationRows {
+            p: &self.spec.vehicle,
+            lay: &self.layout,
+            scale: saturation_scale(&self.spec.initial),
+        }
+    }
+
     /// Stage k's constraint rows or Jacobian entries into `out`, which starts at row or
     /// entry `off` (the body of [`Self::for_stages`]' callbacks).
     #[inline(always)]
@@ -1037,8 +1050,8 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 self.scheme.eval(&cx, k, x, &mut out[d..d + S::ROWS]);
                 friction_eval(p, lay, k, x, &mut out[st.row_friction - off..]);
                 if self.spec.enforce_tire_saturation {
-                    let scale = saturation_scale(&self.spec.initial);
-                    saturation_eval(p, lay, k, x, scale, &mut out[st.row_sat - off..]);
+                    self.saturation_rows()
+                        .eval(k, x, &mut out[st.row_sat - off..]);
                 }
                 if k >= 1 {
                     rate_eval(p, lay, k, x, &mut out[st.row_rate - off..]);
@@ -1049,12 +1062,11 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 self.scheme.jac(&cx, k, x, &mut out[d..d + len]);
                 friction_jac(p, &mut out[st.jac_friction - off..]);
                 if self.spec.enforce_tire_saturation {
-                    let scale = saturation_scale(&self.spec.initial);
-                    let out = &mut out[st.jac_sat - off..];
+                    let (rows, out) = (self.saturation_rows(), &mut out[st.jac_sat - off..]);
                     if cx.oracle {
-                        saturation_jac(p, lay, k, x, scale, out);
+                        rows.jac(k, x, out);
                     } else {
-                        saturation_jac_fast(p, lay, k, x, scale, out);
+                        rows.jac_fast(k, x, out);
                     }
                 }
                 if k >= 1 {

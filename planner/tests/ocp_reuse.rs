@@ -191,12 +191,15 @@ fn solve_after_update_equals_fresh_solve() {
 
 /// The tire saturation rows are scaled by the initial-state treatment (0.1 with a fixed x_0,
 /// 3 with a free one; `planner::ocp::scaling::saturation_scale`), consistently in the row
-/// values, their bounds and their Jacobian, and switching back and forth with
-/// `set_initial` gives a freshly built instance's rows. Nothing else changes.
+/// values, their bounds, their Jacobian and their Hessian (fast path and num-dual oracle),
+/// and switching back and forth with `set_initial` gives the same rows again. Nothing else
+/// changes. Checked at a perturbed guess, where the tires slip and the saturation
+/// derivatives are non-zero.
 #[test]
 fn saturation_rows_follow_the_initial_state_scale() {
     use planner::ocp::scaling::{saturation_scale, SATURATION_SCALE_FIXED, SATURATION_SCALE_FREE};
     use planner::ocp::transcription::RowKind;
+    use planner::ocp::Derivatives;
     assert_eq!(
         saturation_scale(&InitialState::Fixed(X0)),
         SATURATION_SCALE_FIXED
@@ -207,44 +210,78 @@ fn saturation_rows_follow_the_initial_state_scale() {
     let d = nlp.dims();
     let mut z = vec![0.0; d.n];
     nlp.initial_point(&mut z);
+    for (i, v) in z.iter_mut().enumerate() {
+        *v += 0.05 * ((i * 7919 % 23) as f64 / 23.0 - 0.5);
+    }
     let (mut jr, mut jc) = (vec![0; d.nnz_jac], vec![0; d.nnz_jac]);
     nlp.jac_structure(&mut jr, &mut jc);
+    let is_sat = |nlp: &ImplicitEulerNlp<N>, i: usize| {
+        matches!(nlp.describe_row(i).kind, RowKind::Saturation { .. })
+    };
+    // Multipliers on the saturation rows only: the Hessian is theirs alone.
+    let lambda: Vec<f64> = (0..d.m)
+        .map(|i| {
+            if is_sat(&nlp, i) {
+                1.0 + (i % 5) as f64
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let rows = |nlp: &mut ImplicitEulerNlp<N>| {
-        let (mut g, mut jac) = (vec![0.0; d.m], vec![0.0; d.nnz_jac]);
+        let (mut g, mut jac, mut hess) =
+            (vec![0.0; d.m], vec![0.0; d.nnz_jac], vec![0.0; d.nnz_hess]);
         nlp.eval_g(&z, &mut g);
         nlp.eval_jac_g(&z, &mut jac);
-        (g, jac, bounds(nlp))
+        nlp.eval_hess(&z, 1.0, &lambda, &mut hess);
+        (g, jac, hess, bounds(nlp))
     };
-    nlp.set_initial(InitialState::Free);
-    let (g_free, j_free, b_free) = rows(&mut nlp);
-    nlp.set_initial(InitialState::Fixed(X0));
-    let (g_fixed, j_fixed, b_fixed) = rows(&mut nlp);
-    nlp.set_initial(InitialState::Free);
-    assert_eq!(rows(&mut nlp).0, g_free);
     let ratio = SATURATION_SCALE_FIXED / SATURATION_SCALE_FREE;
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
-    let mut saturation_rows = 0;
-    for i in 0..d.m {
-        let sat = matches!(nlp.describe_row(i).kind, RowKind::Saturation { .. });
-        if sat {
-            saturation_rows += 1;
-            assert!(close(g_free[i], ratio * g_fixed[i]), "row {i}");
-            // The rear row at node 0 of a fixed start has a bound it never reaches.
-            if !(nlp.describe_row(i).node == 0
-                && matches!(nlp.describe_row(i).kind, RowKind::Saturation { rear: true }))
-            {
-                assert!(close(b_free.gu[i], ratio * b_fixed.gu[i]), "row {i}");
+    for derivatives in [Derivatives::Fast, Derivatives::Oracle] {
+        nlp.set_derivatives(derivatives);
+        nlp.set_initial(InitialState::Free);
+        let free = rows(&mut nlp);
+        nlp.set_initial(InitialState::Fixed(X0));
+        let fixed = rows(&mut nlp);
+        nlp.set_initial(InitialState::Free);
+        let again = rows(&mut nlp);
+        assert!(again.0 == free.0 && again.1 == free.1 && again.2 == free.2);
+        let (mut sat_rows, mut sat_nonzero) = (0, 0);
+        for i in 0..d.m {
+            if is_sat(&nlp, i) {
+                sat_rows += 1;
+                assert!(close(free.0[i], ratio * fixed.0[i]), "row {i}");
+                // The rear row at node 0 of a fixed start has a bound it never reaches.
+                let info = nlp.describe_row(i);
+                if !(info.node == 0 && info.kind == (RowKind::Saturation { rear: true })) {
+                    assert!(close(free.3.gu[i], ratio * fixed.3.gu[i]), "bound {i}");
+                }
+            } else {
+                assert_eq!(free.0[i].to_bits(), fixed.0[i].to_bits(), "row {i}");
             }
-        } else {
-            assert_eq!(g_free[i].to_bits(), g_fixed[i].to_bits(), "row {i}");
         }
-    }
-    assert_eq!(saturation_rows, 2 * N);
-    for (q, &r) in jr.iter().enumerate() {
-        if matches!(nlp.describe_row(r).kind, RowKind::Saturation { .. }) {
-            assert!(close(j_free[q], ratio * j_fixed[q]), "entry {q}");
-        } else {
-            assert_eq!(j_free[q].to_bits(), j_fixed[q].to_bits(), "entry {q}");
+        assert_eq!(sat_rows, 2 * N);
+        for (q, &r) in jr.iter().enumerate() {
+            if is_sat(&nlp, r) {
+                sat_nonzero += usize::from(free.1[q] != 0.0);
+                assert!(close(free.1[q], ratio * fixed.1[q]), "entry {q}");
+            } else {
+                assert_eq!(free.1[q].to_bits(), fixed.1[q].to_bits(), "entry {q}");
+            }
         }
+        let hess_nonzero = free.2.iter().filter(|v| **v != 0.0).count();
+        for (q, (&a, &b)) in free.2.iter().zip(&fixed.2).enumerate() {
+            assert!(close(a, ratio * b), "Hessian entry {q}: {a} against {b}");
+        }
+        // The point exercises the derivatives: most saturation entries are non-zero.
+        assert!(
+            sat_nonzero > 2 * N * 5,
+            "{sat_nonzero} non-zero Jacobian entries"
+        );
+        assert!(
+            hess_nonzero > N * 10,
+            "{hess_nonzero} non-zero Hessian entries"
+        );
     }
 }

@@ -1,5 +1,6 @@
 //! Scaling of the NLP (reference README finding (a)): every decision variable is
-//! `physical / nominal`, every constraint row is divided by a fixed scale. Scaling does not
+//! `physical / nominal`, every constraint row is divided by a fixed scale (the tire
+//! saturation rows by one that depends on the initial state). Scaling does not
 //! change the solution, only the solver's view of it; without it the oval does not converge.
 
 use super::spec::InitialState;

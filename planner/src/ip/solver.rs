@@ -33,9 +33,6 @@ pub struct Solver<K: KktSolver = KktBackend> {
     kkt: K,
     /// Regularization of the last iteration that needed one (IPOPT's delta_w^last).
     delta_w_last: f64,
-    /// The last inertia correction's first attempt (a shift from `delta_w_last`) had the
-    /// wrong inertia: the next one starts closer to `delta_w_last`.
-    first_attempt_failed: bool,
 }
 
 /// Outcome of factorizing with inertia correction.
@@ -82,7 +79,6 @@ impl<K: KktSolver> Solver<K> {
             ws,
             kkt,
             delta_w_last: 0.0,
-            first_attempt_failed: false,
         })
     }
 
@@ -167,7 +163,6 @@ impl<K: KktSolver> Solver<K> {
         };
         self.ws.log.clear();
         self.delta_w_last = 0.0;
-        self.first_attempt_failed = false;
         let s = self.settings;
 
         if !self.initialize(nlp, &mut info, &mut times) {
@@ -796,27 +791,15 @@ impl<K: KktSolver> Solver<K> {
         let (n, m) = (self.ws.n, self.ws.m);
         self.compute_sigma();
         let mut delta_c = delta_c_base;
-        // IPOPT's Algorithm IC, with three changes that bound the work per iteration: when
-        // the previous iteration needed a shift, start from a fraction of it instead of
-        // retrying zero (saves a factorization on degenerate problems); grow tiny shifts
-        // by 100 so the cap on factorizations is not spent creeping up from 1e-12; and when
-        // the last iteration's first attempt already failed, start from twice that
-        // fraction (delta_w_last / 5 with the default decrease of 10), and if that fails
-        // too, go on as the plain ladder would have from its first rung. On the hard
-        // segments the needed shift shrinks slowly over dozens of iterations, and the plain
-        // ladder then spends a failed factorization on each of them (fourteenth session:
-        // 51 free starts 2457 -> 2409 iterations, 3695 -> 3534 factorizations; 40 held-out
-        // ones 2127 -> 2060 and 3305 -> 3089; the fixed-start drive unchanged).
+        // IPOPT's Algorithm IC, with two changes that bound the work per iteration: when
+        // the previous iteration needed a shift, start from a third of it instead of
+        // retrying zero (saves a factorization on degenerate problems), and grow tiny shifts
+        // by 100 so the cap on factorizations is not spent creeping up from 1e-12.
         const DELTA_W_FLOOR: f64 = 1e-12;
-        let plain_first = (self.delta_w_last / s.delta_w_decrease).max(DELTA_W_FLOOR);
-        let closer_first = !force_reg && self.delta_w_last > 0.0 && self.first_attempt_failed;
-        self.first_attempt_failed = false;
         let mut delta_w = if force_reg {
             self.delta_w_last.max(s.delta_w_init)
-        } else if closer_first {
-            (2.0 * self.delta_w_last / s.delta_w_decrease).max(DELTA_W_FLOOR)
         } else if self.delta_w_last > 0.0 {
-            plain_first
+            (self.delta_w_last / s.delta_w_decrease).max(DELTA_W_FLOOR)
         } else {
             0.0
         };
@@ -863,12 +846,6 @@ impl<K: KktSolver> Solver<K> {
                     delta_c = delta_c.max(1e-8 * mu.max(1e-12).powf(0.25));
                 }
                 Err(KktError::NonFinite | KktError::Unsupported) => return Err(count),
-            }
-            if count == 1 && delta_w > 0.0 {
-                self.first_attempt_failed = true;
-                if closer_first {
-                    delta_w = plain_first;
-                }
             }
             delta_w = if delta_w == 0.0 {
                 if self.delta_w_last == 0.0 {

@@ -239,8 +239,8 @@ struct HessParts<'a, S> {
     defect_slots: &'a [usize],
     sat_slots: &'a [usize],
     saturation: bool,
-    /// Scale of the saturation rows ([`saturation_scale`]).
-    sat_scale: f64,
+    /// The saturation rows, scaled for the problem's initial state.
+    sat_rows: SaturationRows<'a>,
 }
 
 impl<S: DefectScheme> HessParts<'_, S> {
@@ -311,15 +311,10 @@ impl<S: DefectScheme> HessParts<'_, S> {
             let slots = &self.sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
             let lam = &lambda[st.row_sat..st.row_sat + SATURATION_ROWS];
             let out = &mut scratch[..SATURATION_HESS_NNZ];
-            let rows = SaturationRows {
-                p: self.cx.vehicle,
-                lay: &self.cx.layout,
-                scale: self.sat_scale,
-            };
             if self.cx.oracle {
-                rows.hess(k, x, lam, out);
+                self.sat_rows.hess(k, x, lam, out);
             } else {
-                rows.hess_fast(k, x, lam, out);
+                self.sat_rows.hess_fast(k, x, lam, out);
             }
             for (pos, (&s, &v)) in slots.iter().zip(scratch.iter()).enumerate() {
                 emit(base + pos, s, v);
@@ -934,7 +929,11 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             defect_slots: &self.hess_defect_slots,
             sat_slots: &self.hess_sat_slots,
             saturation: self.spec.enforce_tire_saturation,
-            sat_scale: saturation_scale(&self.spec.initial),
+            sat_rows: SaturationRows {
+                p: &self.spec.vehicle,
+                lay: &self.layout,
+                scale: saturation_scale(&self.spec.initial),
+            },
         };
         let Some(shared) = self.worker.as_ref().filter(|_| self.stage_split > 0) else {
             for k in 0..N {

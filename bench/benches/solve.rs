@@ -2,7 +2,8 @@
 //! Fig. 4b), with the per-phase split printed once, for the fast derivative path, the
 //! num-dual oracle and `threads = 2` (helper thread for the factorization and the Hessian);
 //! and each race segment S01-S10 (paper Table II, issue #7: each under 20 ms median), one
-//! criterion group per segment, with one and two threads.
+//! criterion group per segment, with one and two threads. The scenarios' objective is
+//! t_N + 1 x steering slew; the `_pure_min_time` entries solve the paper's eq. 3 (weight 0).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use planner::guess::GuessKind;
@@ -22,12 +23,21 @@ fn oval(c: &mut Criterion) {
             b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
         });
     }
-    let name = "oval_equilibrium_threads2";
-    let mut p = bench::planner_for_with("oval.toml", None, |_, s| s.threads = 2);
-    report(name, &mut p);
-    g.bench_function(name, |b| {
-        b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
-    });
+    for (name, threads, slew) in [
+        ("oval_equilibrium_threads2", 2, None),
+        ("oval_equilibrium_pure_min_time", 1, Some(0.0)),
+    ] {
+        let mut p = bench::planner_for_with("oval.toml", None, |spec, s| {
+            s.threads = threads;
+            if let Some(w) = slew {
+                spec.steering_slew_weight = w;
+            }
+        });
+        report(name, &mut p);
+        g.bench_function(name, |b| {
+            b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
+        });
+    }
     g.finish();
 }
 
@@ -54,15 +64,18 @@ fn segments(c: &mut Criterion) {
         let name = format!("S{k:02}");
         let mut g = c.benchmark_group(format!("segment_{name}"));
         g.sample_size(10);
-        for threads in [1, 2] {
-            let mut p =
-                bench::planner_for_with("segments.toml", Some(&name), |_, s| s.threads = threads);
-            report(&format!("{name} (threads {threads})"), &mut p);
-            let id = if threads == 1 {
-                "equilibrium".to_string()
-            } else {
-                "equilibrium_threads2".to_string()
-            };
+        for (id, threads, slew) in [
+            ("equilibrium", 1, None),
+            ("equilibrium_threads2", 2, None),
+            ("equilibrium_pure_min_time", 1, Some(0.0)),
+        ] {
+            let mut p = bench::planner_for_with("segments.toml", Some(&name), |spec, s| {
+                s.threads = threads;
+                if let Some(w) = slew {
+                    spec.steering_slew_weight = w;
+                }
+            });
+            report(&format!("{name} ({id})"), &mut p);
             g.bench_function(id, |b| {
                 b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
             });

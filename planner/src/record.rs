@@ -254,6 +254,7 @@ pub fn plan_input(
         length_m: spec.length,
         v_min_mps: spec.v_min,
         v_max_mps: spec.v_max,
+        steering_slew_weight: spec.steering_slew_weight,
         enforce_tire_saturation: spec.enforce_tire_saturation,
         initial_state_fixed: fixed,
         x0,
@@ -335,6 +336,7 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, GuessKind),
         v_min: input.v_min_mps,
         v_max: input.v_max_mps,
         enforce_tire_saturation: input.enforce_tire_saturation,
+        steering_slew_weight: input.steering_slew_weight,
         initial: if input.initial_state_fixed {
             InitialState::Fixed(input.x0)
         } else {

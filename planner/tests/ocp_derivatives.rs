@@ -31,8 +31,14 @@ struct Problem {
 }
 
 fn problem(sat: bool, fixed: bool) -> Problem {
+    problem_w(sat, fixed, 0.0)
+}
+
+/// As [`problem`], with the objective's steering-slew term at weight `w` [1/s].
+fn problem_w(sat: bool, fixed: bool, w: f64) -> Problem {
     let mut spec = oval_spec();
     spec.enforce_tire_saturation = sat;
+    spec.steering_slew_weight = w;
     if fixed {
         spec.initial = InitialState::Fixed([0.1, 20.0, 0.01, 20.5, 300.0, 0.5, 0.02, 0.0, 0.0]);
     }
@@ -86,8 +92,8 @@ fn lagrangian_grad(p: &mut Problem, z: &[f64], sigma: f64, lam: &[f64]) -> Vec<f
 
 #[test]
 fn structures_are_valid() {
-    for (sat, fixed) in [(true, false), (false, true)] {
-        let p = problem(sat, fixed);
+    for (sat, fixed, w) in [(true, false, 0.0), (false, true, 0.0), (true, false, 1.0)] {
+        let p = problem_w(sat, fixed, w);
         let mut seen = HashSet::new();
         for (&r, &c) in p.jr.iter().zip(&p.jc) {
             assert!(r < p.m && c < p.n);
@@ -107,19 +113,31 @@ fn structures_are_valid() {
 
 #[test]
 fn objective_gradient_matches_fd() {
-    let mut p = problem(true, false);
-    let z = random_z(&p, 7);
-    let mut g = vec![0.0; p.n];
-    p.nlp.eval_grad_f(&z, &mut g);
-    let mut zz = z.clone();
-    for j in 0..p.n {
-        let h = step(z[j]);
-        zz[j] = z[j] + h;
-        let fp = p.nlp.eval_f(&zz);
-        zz[j] = z[j] - h;
-        let fm = p.nlp.eval_f(&zz);
-        zz[j] = z[j];
-        assert!(rel(g[j], (fp - fm) / (2.0 * h)) < 1e-6, "grad f [{j}]");
+    // Weight 0: t_N only; weight 1: the steering-slew term too (non-zero on every control).
+    for w in [0.0, 1.0] {
+        let mut p = problem_w(true, false, w);
+        let z = random_z(&p, 7);
+        let mut g = vec![0.0; p.n];
+        p.nlp.eval_grad_f(&z, &mut g);
+        let nonzero = g.iter().filter(|v| **v != 0.0).count();
+        assert_eq!(
+            nonzero > 1,
+            w > 0.0,
+            "weight {w}: {nonzero} non-zero entries"
+        );
+        let mut zz = z.clone();
+        for j in 0..p.n {
+            let h = step(z[j]);
+            zz[j] = z[j] + h;
+            let fp = p.nlp.eval_f(&zz);
+            zz[j] = z[j] - h;
+            let fm = p.nlp.eval_f(&zz);
+            zz[j] = z[j];
+            assert!(
+                rel(g[j], (fp - fm) / (2.0 * h)) < 1e-6,
+                "weight {w}: grad f [{j}]"
+            );
+        }
     }
 }
 
@@ -177,8 +195,9 @@ fn constraint_jacobian_matches_fd_fixed_initial_no_saturation() {
 
 #[test]
 fn lagrangian_hessian_matches_fd() {
-    for seed in [21u64, 22] {
-        let mut p = problem(true, false);
+    // Seed 22 with the steering-slew term: its curvature scales with sigma (obj_factor).
+    for (seed, w) in [(21u64, 0.0), (22, 1.0)] {
+        let mut p = problem_w(true, false, w);
         let z = random_z(&p, seed);
         let mut rng = Rng(seed * 7919);
         let lam: Vec<f64> = (0..p.m).map(|_| rng.range(-1.0, 1.0)).collect();
@@ -224,9 +243,9 @@ fn lagrangian_hessian_matches_fd() {
 #[test]
 fn stage_parallel_evaluation_has_the_serial_bits() {
     let worker = planner::worker::shared().unwrap();
-    for (sat, fixed) in [(true, true), (false, false), (true, false)] {
-        let mut serial = problem(sat, fixed);
-        let mut split = problem(sat, fixed);
+    for (sat, fixed, w) in [(true, true, 0.0), (false, false, 0.0), (true, false, 1.0)] {
+        let mut serial = problem_w(sat, fixed, w);
+        let mut split = problem_w(sat, fixed, w);
         split.nlp.set_worker(Some(worker.clone()));
         let z = random_z(&serial, 41);
         let mut rng = Rng(43);

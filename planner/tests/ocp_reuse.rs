@@ -218,7 +218,8 @@ fn saturation_rows_follow_the_initial_state_scale() {
     let is_sat = |nlp: &ImplicitEulerNlp<N>, i: usize| {
         matches!(nlp.describe_row(i).kind, RowKind::Saturation { .. })
     };
-    // Multipliers on the saturation rows only: the Hessian is theirs alone.
+    // Multipliers on the saturation rows only and no objective term (obj_factor 0, so the
+    // shipped steering-slew curvature drops out): the Hessian is theirs alone.
     let lambda: Vec<f64> = (0..d.m)
         .map(|i| {
             if is_sat(&nlp, i) {
@@ -233,7 +234,7 @@ fn saturation_rows_follow_the_initial_state_scale() {
             (vec![0.0; d.m], vec![0.0; d.nnz_jac], vec![0.0; d.nnz_hess]);
         nlp.eval_g(&z, &mut g);
         nlp.eval_jac_g(&z, &mut jac);
-        nlp.eval_hess(&z, 1.0, &lambda, &mut hess);
+        nlp.eval_hess(&z, 0.0, &lambda, &mut hess);
         (g, jac, hess, bounds(nlp))
     };
     let ratio = SATURATION_SCALE_FIXED / SATURATION_SCALE_FREE;

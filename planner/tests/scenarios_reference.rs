@@ -20,6 +20,12 @@ fn solve(file: &str, select: &str, saturation: Option<bool>) -> (SolveInfo, Plan
     if let Some(s) = saturation {
         spec.enforce_tire_saturation = s;
     }
+    // The reference solves the paper's pure minimum time (eq. 3): no steering-slew term.
+    spec.steering_slew_weight = 0.0;
+    solve_spec(spec)
+}
+
+fn solve_spec(spec: planner::ocp::OcpSpec) -> (SolveInfo, Planner<100>) {
     let settings = load_solver(&root().join("solver.toml")).unwrap();
     let mut p = Planner::<100>::new(spec, settings).unwrap();
     let info = p.solve(GuessKind::Equilibrium);
@@ -107,4 +113,71 @@ fn critical_layout_with_saturation_is_certified_infeasible() {
     assert_eq!(info.status, Status::LocallyInfeasible, "{info:?}");
     assert!(info.iterations <= p.solver().settings().max_iter);
     assert!(info.max_violation > 1e-5);
+}
+
+/// The shipped segments objective (t_N + 1 x steering slew, `segments.toml`): every segment
+/// `optimal` in at most 40 iterations (the pure minimum time takes 89-103 on S01, S06 and
+/// S07), never faster than the pure optimum and within 0.5 % of it (issue 7's bound; measured
+/// +0.16 % at most, on S07).
+#[test]
+fn ten_segments_with_the_shipped_objective() {
+    let rows = reference("segments_ie_ipopt.csv", 1);
+    for (name, _, t_ref) in rows {
+        let vehicle = load_vehicle(&root().join("vehicles/lc500.toml")).unwrap();
+        let spec = load_scenario(
+            &root().join("scenarios/segments.toml"),
+            Some(&name),
+            vehicle,
+        )
+        .unwrap();
+        assert_eq!(spec.steering_slew_weight, 1.0, "{name}");
+        let (info, p) = solve_spec(spec);
+        assert_eq!(info.status, Status::Optimal, "{name}: {info:?}");
+        assert!(
+            info.iterations <= 40,
+            "{name}: {} iterations",
+            info.iterations
+        );
+        let t = p.states()[100][ix::T];
+        let rel = (t - t_ref) / t_ref;
+        assert!(rel > -3e-4 && rel < 5e-3, "{name}: t_N {t} vs {t_ref}");
+    }
+}
+
+/// Total steering variation sum |delta_k - delta_{k-1}| [rad] of a solved plan.
+fn steering_variation(p: &Planner<100>) -> f64 {
+    p.controls()
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).abs())
+        .sum()
+}
+
+/// S07 brakes from 57 to 16 m/s with the front brake at its torque bound: the pure minimum
+/// time weaves the steering at its rate limit there (scrub drag; measured 21 reversals, 3.2
+/// rad of total steering variation), the steering-slew term removes the weave (0.39 rad).
+#[test]
+fn steering_slew_term_removes_the_braking_weave() {
+    let (info0, p0) = solve("segments.toml", "S07", None);
+    assert_eq!(info0.status, Status::Optimal);
+    let vehicle = load_vehicle(&root().join("vehicles/lc500.toml")).unwrap();
+    let spec = load_scenario(
+        &root().join("scenarios/segments.toml"),
+        Some("S07"),
+        vehicle,
+    )
+    .unwrap();
+    let (info1, p1) = solve_spec(spec);
+    assert_eq!(info1.status, Status::Optimal);
+    let (v0, v1) = (steering_variation(&p0), steering_variation(&p1));
+    assert!(v0 > 2.0, "pure minimum time: steering variation {v0} rad");
+    assert!(v1 < 0.6, "with the slew term: steering variation {v1} rad");
+    // The front brake is at its torque bound over the braking zone in both.
+    let tbf_min = p0.spec().vehicle.t_bf_min;
+    let at_bound = |p: &Planner<100>| {
+        p.controls()[..40]
+            .iter()
+            .filter(|u| u[2] < 0.99 * tbf_min)
+            .count()
+    };
+    assert!(at_bound(&p0) >= 30 && at_bound(&p1) >= 30);
 }

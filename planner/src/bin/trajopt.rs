@@ -73,6 +73,10 @@ struct StudyFiles {
     /// Folder for the PNG.
     #[arg(long, default_value = "out")]
     out_dir: PathBuf,
+    /// Weight [1/s] of the objective's steering-slew term. Studies reproduce the paper, so
+    /// they solve its pure minimum time (0) unless this is given (1: the shipped scenarios').
+    #[arg(long, value_parser = slew_weight_arg)]
+    steering_slew_weight: Option<f64>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -89,6 +93,10 @@ struct StudyCommon {
     /// Print exactly one JSON object on stdout (tables go to stderr).
     #[arg(long)]
     json: bool,
+    /// Weight [1/s] of the objective's steering-slew term. Studies reproduce the paper, so
+    /// they solve its pure minimum time (0) unless this is given (1: the shipped scenarios').
+    #[arg(long, value_parser = slew_weight_arg)]
+    steering_slew_weight: Option<f64>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -245,6 +253,10 @@ struct SolveArgs {
     /// Tire saturation constraints (overrides the scenario).
     #[arg(long, value_enum)]
     tire_saturation: Option<OnOff>,
+    /// Weight [1/s] of the objective's steering-slew term (overrides the scenario; 0 is the
+    /// paper's pure minimum time).
+    #[arg(long, value_parser = slew_weight_arg)]
+    steering_slew_weight: Option<f64>,
     /// KKT backend (overrides the solver file).
     #[arg(long, value_enum)]
     kkt: Option<KktArg>,
@@ -333,6 +345,22 @@ fn resolve(path: &Path) -> PathBuf {
     }
 }
 
+impl StudyCommon {
+    /// The studies' steering-slew weight: the paper's pure minimum time unless given.
+    fn slew(&self) -> f64 {
+        self.steering_slew_weight.unwrap_or(0.0)
+    }
+}
+
+/// `--steering-slew-weight`: a number in [0, MAX_STEERING_SLEW_WEIGHT].
+fn slew_weight_arg(v: &str) -> Result<f64, String> {
+    let max = planner::ocp::MAX_STEERING_SLEW_WEIGHT;
+    match v.parse::<f64>() {
+        Ok(w) if (0.0..=max).contains(&w) => Ok(w),
+        _ => Err(format!("`{v}` is not a weight in [0, {max}] 1/s")),
+    }
+}
+
 fn solve(args: SolveArgs) -> Result<(), String> {
     if args.repeat == 0 {
         return Err("--repeat must be at least 1".into());
@@ -342,6 +370,9 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
     if let Some(sat) = args.tire_saturation {
         spec.enforce_tire_saturation = matches!(sat, OnOff::On);
+    }
+    if let Some(w) = args.steering_slew_weight {
+        spec.steering_slew_weight = w;
     }
     let mut settings = load_solver(&resolve(&args.solver)).map_err(|e| e.to_string())?;
     if let Some(k) = args.kkt {
@@ -368,6 +399,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         ));
     }
     let saturation = spec.enforce_tire_saturation;
+    let slew = spec.steering_slew_weight;
     let input = planner::record::plan_input(&spec, &settings, guess, 0, 0);
     let mut planner = Planner::<N>::new(spec, settings).map_err(|e| e.to_string())?;
     let recorder = match &args.record {
@@ -517,6 +549,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "kkt": planner.solver().kkt().name(),
             "threads": settings.threads,
             "tire_saturation": saturation,
+            "steering_slew_weight": slew,
             "dual_inf": info.dual_inf,
             "compl": info.compl,
             "factorizations": info.factorizations,
@@ -558,7 +591,9 @@ fn solve(args: SolveArgs) -> Result<(), String> {
 /// Loads the vehicle, scenario and solver settings of a study.
 fn study_inputs(f: &StudyFiles) -> Result<(planner::ocp::OcpSpec, planner::ip::Settings), String> {
     let vehicle = load_vehicle(&resolve(&f.vehicle)).map_err(|e| e.to_string())?;
-    let spec = load_scenario(&resolve(&f.scenario), None, vehicle).map_err(|e| e.to_string())?;
+    let mut spec =
+        load_scenario(&resolve(&f.scenario), None, vehicle).map_err(|e| e.to_string())?;
+    spec.steering_slew_weight = f.steering_slew_weight.unwrap_or(0.0);
     if spec.n_intervals != N {
         return Err(format!(
             "scenario has n_intervals = {}; this build solves N = {N}",
@@ -948,8 +983,8 @@ fn study_segments(args: StudySegmentsArgs) -> Result<(), String> {
         settings.barrier = b.rule();
     }
     let scenario = resolve(&args.scenario);
-    let study =
-        segments::run(&scenario, &vehicle, settings, c.repeat).map_err(|e| e.to_string())?;
+    let study = segments::run(&scenario, &vehicle, settings, c.repeat, Some(c.slew()))
+        .map_err(|e| e.to_string())?;
     let tables = format!(
         "{}\n{}",
         segments::table(&study, "equilibrium"),
@@ -993,15 +1028,17 @@ fn study_barrier(args: StudyBarrierArgs) -> Result<(), String> {
         &vehicle,
         settings,
         c.repeat,
+        Some(c.slew()),
     )
     .map_err(|e| e.to_string())?;
-    let table = barrier::table(&runs, c.repeat, settings.max_refactorizations);
+    let table = barrier::table(&runs, c.repeat, settings.max_refactorizations, c.slew());
     if c.json {
         eprint!("{table}");
         let v = serde_json::json!({
             "scenario": args.scenario.display().to_string(),
             "repeat": c.repeat,
             "max_refactorizations": settings.max_refactorizations,
+            "steering_slew_weight": c.slew(),
             "runs": runs,
         });
         println!("{v}");

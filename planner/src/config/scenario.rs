@@ -10,7 +10,7 @@ use super::tracks::{TrackInfo, TrackToml};
 use super::ConfigError;
 use crate::model::{ix, VehicleParams, NX};
 use crate::ocp::spec::InitialDomain;
-use crate::ocp::{InitialState, OcpSpec};
+use crate::ocp::{InitialState, OcpSpec, MAX_STEERING_SLEW_WEIGHT};
 use crate::track::{piecewise_constant, BoundsOverride, Profile, Road, Segment};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -103,6 +103,7 @@ struct Bounds {
 #[serde(deny_unknown_fields)]
 struct Options {
     enforce_tire_saturation: Option<bool>,
+    steering_slew_weight: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -124,6 +125,7 @@ struct SegmentDefaults {
     v_max_mps: Option<f64>,
     edge_margin_m: Option<f64>,
     enforce_tire_saturation: Option<bool>,
+    steering_slew_weight: Option<f64>,
     initial_state: Option<InitialStateToml>,
 }
 
@@ -161,6 +163,7 @@ struct ObstacleCommon {
     v_min_mps: Option<f64>,
     v_max_mps: Option<f64>,
     enforce_tire_saturation: Option<bool>,
+    steering_slew_weight: Option<f64>,
     initial_state: Option<InitialStateToml>,
 }
 
@@ -325,6 +328,21 @@ fn select_index(
 
 fn objective(f: Fields<'_>, v: Option<&str>, field: &str) -> Result<(), ConfigError> {
     f.one_of(v, field, &["min_time"]).map(|_| ())
+}
+
+/// The optional steering-slew weight [1/s] of the objective ([`OcpSpec::steering_slew_weight`]):
+/// absent is 0, the paper's pure minimum time.
+fn slew_weight(f: Fields<'_>, v: Option<f64>, field: &str) -> Result<f64, ConfigError> {
+    let Some(w) = v else { return Ok(0.0) };
+    let w = f.non_neg(Some(w), field)?;
+    if w > MAX_STEERING_SLEW_WEIGHT {
+        return Err(f.invalid(
+            field,
+            w,
+            format!("must be at most {MAX_STEERING_SLEW_WEIGHT}"),
+        ));
+    }
+    Ok(w)
 }
 
 /// Validated horizon: (length, N). `ds` is a check value: length / N within 1e-9 relative.
@@ -509,6 +527,7 @@ fn single(
     )?;
     let o = f.req(file.options, "options")?;
     let sat = f.req(o.enforce_tire_saturation, "options.enforce_tire_saturation")?;
+    let slew = slew_weight(f, o.steering_slew_weight, "options.steering_slew_weight")?;
     let road = Road::from_fn(length, n, |s| {
         (piecewise_constant(&pieces, s), e_min, e_max)
     });
@@ -518,7 +537,7 @@ fn single(
         length,
         road,
         (v_min, v_max),
-        sat,
+        (sat, slew),
         (file.initial_state, "initial_state"),
         vehicle,
     )
@@ -590,6 +609,7 @@ fn segments(
         d.enforce_tire_saturation,
         "defaults.enforce_tire_saturation",
     )?;
+    let slew = slew_weight(f, d.steering_slew_weight, "defaults.steering_slew_weight")?;
 
     let root = data_root_of(f.file);
     let mut tracks: Vec<TrackInfo> = Vec::new();
@@ -631,7 +651,7 @@ fn segments(
         length,
         road,
         (v_min, v_max),
-        sat,
+        (sat, slew),
         (d.initial_state, "defaults.initial_state"),
         vehicle,
     )
@@ -688,6 +708,7 @@ fn obstacles(
         (c.v_max_mps, "common.v_max_mps"),
     )?;
     let sat = f.req(c.enforce_tire_saturation, "common.enforce_tire_saturation")?;
+    let slew = slew_weight(f, c.steering_slew_weight, "common.steering_slew_weight")?;
 
     let field = format!("scenarios[{name}].bounds_override");
     let mut overrides: Vec<BoundsOverride> = Vec::new();
@@ -738,7 +759,7 @@ fn obstacles(
         length,
         road,
         (v_min, v_max),
-        sat,
+        (sat, slew),
         (c.initial_state, "common.initial_state"),
         vehicle,
     )
@@ -753,7 +774,7 @@ fn finish(
     length: f64,
     road: Road,
     (v_min, v_max): (f64, f64),
-    enforce_tire_saturation: bool,
+    (enforce_tire_saturation, steering_slew_weight): (bool, f64),
     (initial, initial_field): (Option<InitialStateToml>, &str),
     vehicle: VehicleParams,
 ) -> Result<OcpSpec, ConfigError> {
@@ -775,6 +796,7 @@ fn finish(
         v_min,
         v_max,
         enforce_tire_saturation,
+        steering_slew_weight,
         initial,
         vehicle,
     })

@@ -25,7 +25,8 @@ pub fn oval_kappa(s: f64) -> f64 {
 }
 
 /// Test fixture: the oval scenario (N = 100, 260 m, |e| <= 4 m, V in [5, 40] m/s, tire
-/// saturation on, free initial state) with the LC 500.
+/// saturation on, free initial state) with the LC 500, and the paper's pure minimum-time
+/// objective (no steering-slew term; `config/scenarios/oval.toml` has one).
 #[doc(hidden)]
 pub fn oval_spec() -> OcpSpec {
     let n = 100;
@@ -41,6 +42,7 @@ pub fn oval_spec() -> OcpSpec {
         v_min: 5.0,
         v_max: 40.0,
         enforce_tire_saturation: true,
+        steering_slew_weight: 0.0,
         initial: InitialState::Free,
         vehicle: lc500(),
     }

@@ -7,13 +7,14 @@ pub mod fast;
 pub mod fixtures;
 pub mod jet;
 pub mod layout;
+pub mod objective;
 pub mod path_constraints;
 pub mod scaling;
 pub mod spec;
 pub mod transcription;
 
 pub use layout::Layout;
-pub use spec::{InitialState, OcpSpec, SpecError};
+pub use spec::{InitialState, OcpSpec, SpecError, MAX_STEERING_SLEW_WEIGHT};
 pub use transcription::{
     CrankNicolson, DefectScheme, Derivatives, ExplicitRk2, ExplicitRk4, GaussLegendre2,
     GaussLegendre3, ImplicitEuler, ImplicitEulerNlp, LinearMultistep, MultistepFamily, RowInfo,

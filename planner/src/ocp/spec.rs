@@ -36,11 +36,21 @@ pub struct OcpSpec {
     pub v_max: f64,
     /// Add the tire saturation constraints (R5) when true.
     pub enforce_tire_saturation: bool,
+    /// Weight w [1/s] of the steering-slew term added to t_N in the objective:
+    /// J = t_N + w sum_{k=1}^{N-1} ((delta_k - delta_{k-1}) / delta_rate_max)^2, each term the
+    /// squared time the interval's steering change takes at the rate limit. 0 is the paper's
+    /// pure minimum time (eq. 3), whose optimum weaves the steering at its rate limit
+    /// wherever the front brake is torque-limited (scrub drag; README, Modelling choices).
+    pub steering_slew_weight: f64,
     /// Initial state treatment.
     pub initial: InitialState,
     /// Vehicle parameters.
     pub vehicle: VehicleParams,
 }
+
+/// Largest accepted [`OcpSpec::steering_slew_weight`] [1/s]: at 1e3 the term outweighs
+/// the time by orders of magnitude on any steering change, no longer a regularization.
+pub const MAX_STEERING_SLEW_WEIGHT: f64 = 1e3;
 
 /// OCP data outside its domain.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -92,6 +102,17 @@ impl OcpSpec {
             return Err(bad(
                 "v_max".into(),
                 format!("{} does not exceed v_min = {}", self.v_max, self.v_min),
+            ));
+        }
+        if !(self.steering_slew_weight.is_finite()
+            && (0.0..=MAX_STEERING_SLEW_WEIGHT).contains(&self.steering_slew_weight))
+        {
+            return Err(bad(
+                "steering_slew_weight".into(),
+                format!(
+                    "{} is not in [0, {MAX_STEERING_SLEW_WEIGHT}] 1/s",
+                    self.steering_slew_weight
+                ),
             ));
         }
         self.vehicle.check()?;
@@ -246,6 +267,7 @@ mod tests {
             v_min: 1.0,
             v_max: 60.0,
             enforce_tire_saturation: true,
+            steering_slew_weight: 0.0,
             initial: InitialState::Free,
             vehicle: lc500(),
         }
@@ -265,6 +287,8 @@ mod tests {
         assert!(refused(|s| s.length = f64::NAN).contains("length"));
         assert!(refused(|s| s.kappa.pop().map_or((), |_| ())).contains("kappa"));
         assert!(refused(|s| s.kappa[2] = f64::INFINITY).contains("kappa[2]"));
+        assert!(refused(|s| s.steering_slew_weight = -1.0).contains("steering_slew_weight"));
+        assert!(refused(|s| s.steering_slew_weight = f64::NAN).contains("steering_slew_weight"));
         assert!(refused(|s| s.e_min[3] = 2.0).contains("e_min[3]"));
         assert!(refused(|s| s.v_min = 0.0).contains("v_min"));
         assert!(refused(|s| s.v_max = 0.5).contains("v_max"));

@@ -102,6 +102,8 @@ pub struct PlanInput {
     pub v_min_mps: f64,
     /// Speed upper bound [m/s].
     pub v_max_mps: f64,
+    /// Weight of the objective's steering-slew term [1/s] (0: pure minimum time).
+    pub steering_slew_weight: f64,
     /// Tire saturation constraints on.
     pub enforce_tire_saturation: bool,
     /// True when `x0` is the fixed initial state (vehicle state); false: paper's free start.

@@ -24,6 +24,8 @@ uint32 n_intervals
 float64 length_m
 float64 v_min_mps
 float64 v_max_mps
+# weight of the objective's steering-slew term [1/s] (0: pure minimum time)
+float64 steering_slew_weight
 bool enforce_tire_saturation
 bool initial_state_fixed
 # initial vehicle state [r, V, beta, V_wr, dFz, e, dpsi, s, t]

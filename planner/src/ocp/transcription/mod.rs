@@ -37,13 +37,14 @@ pub use implicit_euler::ImplicitEuler;
 pub use multistep::{LinearMultistep, MultistepFamily};
 
 use super::layout::Layout;
+use super::objective::Objective;
 use super::path_constraints::*;
-use super::scaling::{saturation_scale, OBJECTIVE_SCALE, X_NOMINAL};
+use super::scaling::saturation_scale;
 use super::scaling::{scale_control, scale_state, unscale_control, unscale_state};
 use super::spec::{InitialState, OcpSpec};
 use crate::ip::kkt::{RowRole, StageStructure};
 use crate::ip::{Nlp, NlpDims};
-use crate::model::{ix, VehicleParams, CONTROL_NAMES, NU, NX, STATE_NAMES};
+use crate::model::{VehicleParams, CONTROL_NAMES, NU, NX, STATE_NAMES};
 use std::collections::HashMap;
 
 use crate::worker::{self, SharedWorker};
@@ -199,6 +200,8 @@ pub struct Transcription<S: DefectScheme, const N: usize> {
     hess_defect_off: Vec<usize>,
     hess_defect_slots: Vec<usize>,
     hess_sat_slots: Vec<usize>,
+    /// t_N and the steering-slew term, with the latter's Hessian slots.
+    objective: Objective,
     scratch: Vec<f64>,
     /// The stage-parallel evaluation ([`Self::set_worker`]): the helper thread, its scratch,
     /// the first stage it takes (0: serial), and per position of that stage's Hessian slots
@@ -509,8 +512,18 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             }
         }
 
+        // The objective's steering-slew entries (none at weight 0: the pattern is unchanged).
+        let objective = Objective::new(
+            layout,
+            N,
+            spec.steering_slew_weight,
+            &spec.vehicle,
+            |r, c| hb.slot(r, c),
+        );
+
         let n = layout.n();
         let mut me = Self {
+            objective,
             scheme,
             derivatives: Derivatives::Fast,
             layout,
@@ -832,14 +845,13 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         cols.copy_from_slice(&self.hess_cols);
     }
 
-    /// Objective t_N / 10 = the scaled t_N.
+    /// Objective t_N / 10 = the scaled t_N, plus the steering-slew term ([`Objective`]).
     fn eval_f(&mut self, x: &[f64]) -> f64 {
-        x[self.layout.x(N, ix::T)] * X_NOMINAL[ix::T] / OBJECTIVE_SCALE
+        self.objective.value(x)
     }
 
-    fn eval_grad_f(&mut self, _x: &[f64], grad: &mut [f64]) {
-        grad.fill(0.0);
-        grad[self.layout.x(N, ix::T)] = X_NOMINAL[ix::T] / OBJECTIVE_SCALE;
+    fn eval_grad_f(&mut self, x: &[f64], grad: &mut [f64]) {
+        self.objective.gradient(x, grad);
     }
 
     fn eval_g(&mut self, x: &[f64], g: &mut [f64]) {
@@ -864,8 +876,8 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         self.eval_jac_body(x, vals)
     }
 
-    /// Hessian of `obj_factor f + lambda^T g`; f and all rows but the defects and the
-    /// saturation rows are linear, so only those contribute.
+    /// Hessian of `obj_factor f + lambda^T g`: the defect and saturation rows (all other
+    /// rows are linear) and the objective's constant steering-slew term.
     /// Stages z_k = (x_k, u_k) for single-step schemes (no stage variables); the Riccati
     /// backend checks at setup that the defects couple only x_k, u_k and x_{k+1}.
     fn stage_structure(&self) -> Option<StageStructure> {
@@ -892,7 +904,16 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         })
     }
 
-    fn eval_hess(&mut self, x: &[f64], _obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
+    fn eval_hess(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
+        self.eval_hess_for_cpu(x, lambda, vals);
+        // The objective's only curvature: the steering-slew term, constant.
+        self.objective.add_hessian(obj_factor, vals);
+    }
+}
+
+impl<S: DefectScheme, const N: usize> Transcription<S, N> {
+    /// The constraints' Hessian terms (overwrites `vals`) in the copy compiled for this CPU.
+    fn eval_hess_for_cpu(&mut self, x: &[f64], lambda: &[f64], vals: &mut [f64]) {
         #[cfg(target_arch = "x86_64")]
         if self.simd {
             // SAFETY: `simd` is only true when the CPU reports AVX2.
@@ -900,9 +921,7 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         }
         self.eval_hess_body(x, lambda, vals)
     }
-}
 
-impl<S: DefectScheme, const N: usize> Transcription<S, N> {
     /// Hessian values, inlined into both the baseline and the AVX2 entry point. With a
     /// worker the stages after `stage_split` run on the helper thread; same bits.
     #[inline(always)]

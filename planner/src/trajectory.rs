@@ -37,7 +37,7 @@ impl Trajectory {
         self.u.len()
     }
 
-    /// Final time t_N [s] (the objective).
+    /// Final time t_N [s] (the objective, plus the steering-slew term when it is weighted).
     pub fn t_final(&self) -> f64 {
         self.x.last().map_or(f64::NAN, |x| x[ix::T])
     }

@@ -581,3 +581,66 @@ fn oval_errors() {
         "{msg}"
     );
 }
+
+/// The objective's steering-slew weight: in each of the three scenario schemas a bad value
+/// names the file and the field; absent is 0 (the paper's pure minimum time).
+#[test]
+fn steering_slew_weight_errors() {
+    let root = TempRoot::new("slew");
+    let oval = shipped_text("scenarios/oval.toml");
+    assert!(oval.contains("steering_slew_weight = 1.0"));
+    for (to, expect) in [
+        ("-1.0", "options.steering_slew_weight = -1: must be >= 0"),
+        (
+            "nan",
+            "options.steering_slew_weight = NaN: must be a finite number",
+        ),
+        (
+            "2000.0",
+            "options.steering_slew_weight = 2000: must be at most 1000",
+        ),
+        ("\"one\"", "invalid type: string \"one\", expected f64"),
+    ] {
+        let bad = oval.replacen(
+            "steering_slew_weight = 1.0",
+            &format!("steering_slew_weight = {to}"),
+            1,
+        );
+        let path = root.write("scenarios/oval.toml", &bad);
+        let msg = message(load_scenario(&path, None, vehicle()).unwrap_err(), &path);
+        assert!(msg.contains(expect), "{msg}");
+    }
+    let absent = oval.replacen("steering_slew_weight = 1.0", "", 1);
+    let path = root.write("scenarios/oval.toml", &absent);
+    assert_eq!(
+        load_scenario(&path, None, vehicle())
+            .unwrap()
+            .steering_slew_weight,
+        0.0
+    );
+    let path = segments_file(&root, "10.0", "");
+    let text = std::fs::read_to_string(&path).unwrap().replacen(
+        "enforce_tire_saturation = true",
+        "enforce_tire_saturation = true\nsteering_slew_weight = -0.5",
+        1,
+    );
+    let path = root.write("scenarios/seg.toml", &text);
+    let msg = message(
+        load_scenario(&path, Some("A"), vehicle()).unwrap_err(),
+        &path,
+    );
+    assert!(
+        msg.contains("defaults.steering_slew_weight = -0.5: must be >= 0"),
+        "{msg}"
+    );
+    let msg = ca_error(
+        "ca-slew",
+        "steering_slew_weight = 0.0",
+        "steering_slew_weight = inf",
+        None,
+    );
+    assert!(
+        msg.contains("common.steering_slew_weight = inf: must be a finite number"),
+        "{msg}"
+    );
+}

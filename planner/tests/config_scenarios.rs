@@ -277,3 +277,25 @@ fn shifted_segments_are_the_benchmark_segments_moved_along_the_track() {
         }
     }
 }
+
+/// The shipped objectives: the oval and the race segments (plain and shifted) weight the
+/// steering slew by 1, the collision-avoidance scenarios keep the paper's pure minimum time.
+#[test]
+fn shipped_steering_slew_weights() {
+    assert_eq!(scenario("oval.toml", None).steering_slew_weight, 1.0);
+    assert_eq!(
+        scenario("segments.toml", Some("S07")).steering_slew_weight,
+        1.0
+    );
+    assert_eq!(
+        scenario("segments_shifted.toml", Some("S07-15")).steering_slew_weight,
+        1.0
+    );
+    for (file, sel) in [
+        ("collision_avoidance.toml", Some("critical")),
+        ("ca_forgiving.toml", None),
+        ("ca_critical.toml", None),
+    ] {
+        assert_eq!(scenario(file, sel).steering_slew_weight, 0.0, "{file}");
+    }
+}

@@ -503,7 +503,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         "{name}: status {status}, {it} iterations, solve {solve_ms:.2} ms (median of {rep}), \
          t_final {tf:.4} s, max violation {mv:.2e} (initial {iv:.2e}, {sv:.2e} pushed into the bounds), max |beta| {mb:.3} rad\n  \
          guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, kkt {kkt}, \
-         tire saturation {sat}\n  \
+         tire saturation {sat}, {objective}\n  \
          time: evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
          {nf} factorizations (max {mf} per iteration, cap {cap}), {fb} fallback steps",
         status = info.status.name(),
@@ -519,6 +519,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         barrier = settings.barrier.name(),
         kkt = planner.solver().kkt().name(),
         sat = if saturation { "on" } else { "off" },
+        objective = planner::study::segments::objective_label(slew),
         ev = info.times.evaluation * 1e3,
         fa = info.times.factorization * 1e3,
         so = info.times.solve * 1e3,
@@ -654,11 +655,16 @@ fn study_integrators(a: IntegratorsArgs) -> Result<(), String> {
             None
         }
     };
-    let table = study.table();
+    let table = format!(
+        "{}{}\n",
+        study.table(),
+        planner::study::segments::objective_label(spec.steering_slew_weight)
+    );
     if a.files.json {
         eprint!("{table}");
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["figure"] = serde_json::json!(figure);
+        v["steering_slew_weight"] = serde_json::json!(spec.steering_slew_weight);
         println!("{v}");
     } else {
         print!("{table}");
@@ -706,13 +712,14 @@ fn study_stiffness(a: StiffnessArgs) -> Result<(), String> {
         .collect();
     let fmt = |v: Option<f64>| v.map_or("none".to_string(), |r| format!("{r:.1}"));
     let summary = format!(
-        "stiffness ({} Jacobian d(dx/ds)/dx) along the {} optimum: solve {}, t_N {:.4} s\n  \
+        "stiffness ({} Jacobian d(dx/ds)/dx) along the {} optimum ({}): solve {}, t_N {:.4} s\n  \
          peak stiffness ratio {} at node {} (s = {:.1} m), fastest mode dominated by {} (slowest by {})\n  \
          nodes above 1e3: {} of {}; node 0 (free initial state) ratio {}\n  \
          dominant state of the fastest mode (nodes 1..N): {}\n  \
          vehicle dynamics only (r, V, beta, V_wr, dFz): peak ratio {} at node {}, dominated by {}",
         study.jacobian,
         spec.name,
+        planner::study::segments::objective_label(spec.steering_slew_weight),
         info.status.name(),
         planner.states()[N][planner::model::ix::T],
         fmt(study.peak_ratio),
@@ -734,6 +741,7 @@ fn study_stiffness(a: StiffnessArgs) -> Result<(), String> {
         eprintln!("{summary}");
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["scenario"] = serde_json::json!(spec.name);
+        v["steering_slew_weight"] = serde_json::json!(spec.steering_slew_weight);
         v["status"] = serde_json::json!(info.status.name());
         v["iterations"] = serde_json::json!(info.iterations);
         v["figure"] = serde_json::json!(figure);

@@ -35,10 +35,16 @@ impl Objective {
         vehicle: &VehicleParams,
         mut slot: impl FnMut(usize, usize) -> usize,
     ) -> Self {
-        let c = U_NOMINAL[iu::DELTA] / vehicle.delta_rate_max;
-        let slew = w * c * c / OBJECTIVE_SCALE;
+        // Weight 0 leaves the problem exactly eq. 3 (and the pattern unchanged), whatever
+        // the vehicle's rate bound (a spec that skipped `OcpSpec::check` may hold 0 or inf).
+        let slew = if w == 0.0 {
+            0.0
+        } else {
+            let c = U_NOMINAL[iu::DELTA] / vehicle.delta_rate_max;
+            w * c * c / OBJECTIVE_SCALE
+        };
         let mut slots = Vec::new();
-        if slew != 0.0 {
+        if w != 0.0 {
             for k in 1..n {
                 let (a, b) = (layout.u(k, iu::DELTA), layout.u(k - 1, iu::DELTA));
                 slots.push([slot(a, a), slot(b, b), slot(a.max(b), a.min(b))]);

@@ -289,6 +289,10 @@ mod tests {
         assert!(refused(|s| s.kappa[2] = f64::INFINITY).contains("kappa[2]"));
         assert!(refused(|s| s.steering_slew_weight = -1.0).contains("steering_slew_weight"));
         assert!(refused(|s| s.steering_slew_weight = f64::NAN).contains("steering_slew_weight"));
+        assert!(
+            refused(|s| s.steering_slew_weight = f64::INFINITY).contains("steering_slew_weight")
+        );
+        assert!(refused(|s| s.steering_slew_weight = 1001.0).contains("steering_slew_weight"));
         assert!(refused(|s| s.e_min[3] = 2.0).contains("e_min[3]"));
         assert!(refused(|s| s.v_min = 0.0).contains("v_min"));
         assert!(refused(|s| s.v_max = 0.5).contains("v_max"));

@@ -845,7 +845,7 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         cols.copy_from_slice(&self.hess_cols);
     }
 
-    /// Objective t_N / 10 = the scaled t_N, plus the steering-slew term ([`Objective`]).
+    /// Objective t_N / OBJECTIVE_SCALE (= 10 t_N), plus the steering-slew term ([`Objective`]).
     fn eval_f(&mut self, x: &[f64]) -> f64 {
         self.objective.value(x)
     }
@@ -876,8 +876,6 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         self.eval_jac_body(x, vals)
     }
 
-    /// Hessian of `obj_factor f + lambda^T g`: the defect and saturation rows (all other
-    /// rows are linear) and the objective's constant steering-slew term.
     /// Stages z_k = (x_k, u_k) for single-step schemes (no stage variables); the Riccati
     /// backend checks at setup that the defects couple only x_k, u_k and x_{k+1}.
     fn stage_structure(&self) -> Option<StageStructure> {
@@ -904,6 +902,8 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
         })
     }
 
+    /// Hessian of `obj_factor f + lambda^T g`: the defect and saturation rows (all other
+    /// rows are linear) and the objective's constant steering-slew term.
     fn eval_hess(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
         self.eval_hess_for_cpu(x, lambda, vals);
         // The objective's only curvature: the steering-slew term, constant.

@@ -73,6 +73,13 @@ struct StudyFiles {
     /// Folder for the PNG.
     #[arg(long, default_value = "out")]
     out_dir: PathBuf,
+    #[command(flatten)]
+    objective: StudyObjective,
+}
+
+/// The objective a study solves.
+#[derive(clap::Args, Debug)]
+struct StudyObjective {
     /// Weight [1/s] of the objective's steering-slew term. Studies reproduce the paper, so
     /// they solve its pure minimum time (0) unless this is given (1: the shipped scenarios').
     #[arg(long, value_parser = slew_weight_arg)]
@@ -93,10 +100,8 @@ struct StudyCommon {
     /// Print exactly one JSON object on stdout (tables go to stderr).
     #[arg(long)]
     json: bool,
-    /// Weight [1/s] of the objective's steering-slew term. Studies reproduce the paper, so
-    /// they solve its pure minimum time (0) unless this is given (1: the shipped scenarios').
-    #[arg(long, value_parser = slew_weight_arg)]
-    steering_slew_weight: Option<f64>,
+    #[command(flatten)]
+    objective: StudyObjective,
 }
 
 #[derive(clap::Args, Debug)]
@@ -345,7 +350,7 @@ fn resolve(path: &Path) -> PathBuf {
     }
 }
 
-impl StudyCommon {
+impl StudyObjective {
     /// The studies' steering-slew weight: the paper's pure minimum time unless given.
     fn slew(&self) -> f64 {
         self.steering_slew_weight.unwrap_or(0.0)
@@ -519,7 +524,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         barrier = settings.barrier.name(),
         kkt = planner.solver().kkt().name(),
         sat = if saturation { "on" } else { "off" },
-        objective = planner::study::segments::objective_label(slew),
+        objective = planner::ocp::objective::label(slew),
         ev = info.times.evaluation * 1e3,
         fa = info.times.factorization * 1e3,
         so = info.times.solve * 1e3,
@@ -594,7 +599,7 @@ fn study_inputs(f: &StudyFiles) -> Result<(planner::ocp::OcpSpec, planner::ip::S
     let vehicle = load_vehicle(&resolve(&f.vehicle)).map_err(|e| e.to_string())?;
     let mut spec =
         load_scenario(&resolve(&f.scenario), None, vehicle).map_err(|e| e.to_string())?;
-    spec.steering_slew_weight = f.steering_slew_weight.unwrap_or(0.0);
+    spec.steering_slew_weight = f.objective.slew();
     if spec.n_intervals != N {
         return Err(format!(
             "scenario has n_intervals = {}; this build solves N = {N}",
@@ -658,7 +663,7 @@ fn study_integrators(a: IntegratorsArgs) -> Result<(), String> {
     let table = format!(
         "{}{}\n",
         study.table(),
-        planner::study::segments::objective_label(spec.steering_slew_weight)
+        planner::ocp::objective::label(spec.steering_slew_weight)
     );
     if a.files.json {
         eprint!("{table}");
@@ -719,7 +724,7 @@ fn study_stiffness(a: StiffnessArgs) -> Result<(), String> {
          vehicle dynamics only (r, V, beta, V_wr, dFz): peak ratio {} at node {}, dominated by {}",
         study.jacobian,
         spec.name,
-        planner::study::segments::objective_label(spec.steering_slew_weight),
+        planner::ocp::objective::label(spec.steering_slew_weight),
         info.status.name(),
         planner.states()[N][planner::model::ix::T],
         fmt(study.peak_ratio),
@@ -991,7 +996,7 @@ fn study_segments(args: StudySegmentsArgs) -> Result<(), String> {
         settings.barrier = b.rule();
     }
     let scenario = resolve(&args.scenario);
-    let study = segments::run(&scenario, &vehicle, settings, c.repeat, Some(c.slew()))
+    let study = segments::run(&scenario, &vehicle, settings, c.repeat, c.objective.slew())
         .map_err(|e| e.to_string())?;
     let tables = format!(
         "{}\n{}",
@@ -1036,17 +1041,22 @@ fn study_barrier(args: StudyBarrierArgs) -> Result<(), String> {
         &vehicle,
         settings,
         c.repeat,
-        Some(c.slew()),
+        c.objective.slew(),
     )
     .map_err(|e| e.to_string())?;
-    let table = barrier::table(&runs, c.repeat, settings.max_refactorizations, c.slew());
+    let table = barrier::table(
+        &runs,
+        c.repeat,
+        settings.max_refactorizations,
+        c.objective.slew(),
+    );
     if c.json {
         eprint!("{table}");
         let v = serde_json::json!({
             "scenario": args.scenario.display().to_string(),
             "repeat": c.repeat,
             "max_refactorizations": settings.max_refactorizations,
-            "steering_slew_weight": c.slew(),
+            "steering_slew_weight": c.objective.slew(),
             "runs": runs,
         });
         println!("{v}");

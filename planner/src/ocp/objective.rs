@@ -13,6 +13,15 @@ use super::layout::Layout;
 use super::scaling::{OBJECTIVE_SCALE, U_NOMINAL, X_NOMINAL};
 use crate::model::{iu, ix, VehicleParams};
 
+/// The objective with steering-slew weight `w` [1/s] in words, for tables and summaries.
+pub fn label(w: f64) -> String {
+    if w == 0.0 {
+        "objective t_N (paper eq. 3)".into()
+    } else {
+        format!("objective t_N + {w} x steering slew")
+    }
+}
+
 /// The objective's pieces for one transcription (weight fixed at construction).
 #[derive(Debug, Clone)]
 pub struct Objective {
@@ -37,23 +46,25 @@ impl Objective {
     ) -> Self {
         // Weight 0 leaves the problem exactly eq. 3 (and the pattern unchanged), whatever
         // the vehicle's rate bound (a spec that skipped `OcpSpec::check` may hold 0 or inf).
-        let slew = if w == 0.0 {
-            0.0
-        } else {
-            let c = U_NOMINAL[iu::DELTA] / vehicle.delta_rate_max;
-            w * c * c / OBJECTIVE_SCALE
-        };
-        let mut slots = Vec::new();
-        if w != 0.0 {
-            for k in 1..n {
-                let (a, b) = (layout.u(k, iu::DELTA), layout.u(k - 1, iu::DELTA));
-                slots.push([slot(a, a), slot(b, b), slot(a.max(b), a.min(b))]);
-            }
+        if w == 0.0 {
+            return Self {
+                layout,
+                n,
+                slew: 0.0,
+                slots: Vec::new(),
+            };
         }
+        let c = U_NOMINAL[iu::DELTA] / vehicle.delta_rate_max;
+        let slots = (1..n)
+            .map(|k| {
+                let (a, b) = (layout.u(k, iu::DELTA), layout.u(k - 1, iu::DELTA));
+                [slot(a, a), slot(b, b), slot(a.max(b), a.min(b))]
+            })
+            .collect();
         Self {
             layout,
             n,
-            slew,
+            slew: w * c * c / OBJECTIVE_SCALE,
             slots,
         }
     }

@@ -104,9 +104,7 @@ impl OcpSpec {
                 format!("{} does not exceed v_min = {}", self.v_max, self.v_min),
             ));
         }
-        if !(self.steering_slew_weight.is_finite()
-            && (0.0..=MAX_STEERING_SLEW_WEIGHT).contains(&self.steering_slew_weight))
-        {
+        if !(0.0..=MAX_STEERING_SLEW_WEIGHT).contains(&self.steering_slew_weight) {
             return Err(bad(
                 "steering_slew_weight".into(),
                 format!(

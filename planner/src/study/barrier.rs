@@ -34,22 +34,21 @@ pub struct BarrierRun {
     pub fallback_steps: usize,
 }
 
-/// Solves `scenario` (optionally one `select`ed entry) with every rule, `repeat` times each.
+/// Solves `scenario` (optionally one `select`ed entry) with every rule, `repeat` times each,
+/// with `steering_slew_weight` in place of the scenario's.
 pub fn run(
     scenario: &Path,
     select: Option<&str>,
     vehicle: &VehicleParams,
     settings: Settings,
     repeat: usize,
-    steering_slew_weight: Option<f64>,
+    steering_slew_weight: f64,
 ) -> Result<Vec<BarrierRun>, StudyError> {
     if repeat == 0 {
         return Err(StudyError::Repeat);
     }
     let mut spec = load_scenario(scenario, select, *vehicle)?;
-    if let Some(w) = steering_slew_weight {
-        spec.steering_slew_weight = w;
-    }
+    spec.steering_slew_weight = steering_slew_weight;
     let mut planner = Planner::<{ super::segments::N }>::new(spec, settings)?;
     let mut out = Vec::with_capacity(BarrierRule::ALL.len());
     for rule in BarrierRule::ALL {
@@ -89,7 +88,7 @@ pub fn table(runs: &[BarrierRun], repeat: usize, cap: usize, steering_slew_weigh
     let _ = writeln!(
         s,
         "Table IV: barrier rules (median of {repeat}, cap {cap} factorizations/iteration, {})",
-        super::segments::objective_label(steering_slew_weight)
+        crate::ocp::objective::label(steering_slew_weight)
     );
     let _ = writeln!(
         s,

@@ -110,15 +110,15 @@ pub fn load_reference(path: &Path) -> Result<Vec<(String, f64, usize)>, StudyErr
 }
 
 /// Runs the study on every segment of `scenario` with the given vehicle and settings;
-/// `repeat` solves per run (median time); `steering_slew_weight` overrides the scenario's
-/// (`Some(0.0)`: the paper's pure minimum time). The reference table is optional: without
-/// it the reference columns are empty.
+/// `repeat` solves per run (median time); every segment is solved with
+/// `steering_slew_weight` in place of the scenario's (0: the paper's pure minimum time).
+/// The reference table is optional: without it the reference columns are empty.
 pub fn run(
     scenario: &Path,
     vehicle: &VehicleParams,
     settings: Settings,
     repeat: usize,
-    steering_slew_weight: Option<f64>,
+    steering_slew_weight: f64,
 ) -> Result<SegmentsStudy, StudyError> {
     if repeat == 0 {
         return Err(StudyError::Repeat);
@@ -126,13 +126,9 @@ pub fn run(
     let names = list_selections(scenario)?;
     let reference = load_reference(&data_root_of(scenario).join(REFERENCE_CSV)).ok();
     let mut runs = Vec::with_capacity(2 * names.len());
-    let mut weight = steering_slew_weight.unwrap_or(0.0);
     for name in &names {
         let mut spec = load_scenario(scenario, Some(name), *vehicle)?;
-        if let Some(w) = steering_slew_weight {
-            spec.steering_slew_weight = w;
-        }
-        weight = spec.steering_slew_weight;
+        spec.steering_slew_weight = steering_slew_weight;
         let mut planner = Planner::<N>::new(spec, settings)?;
         let refrow = reference
             .as_ref()
@@ -179,20 +175,11 @@ pub fn run(
     }
     Ok(SegmentsStudy {
         max_refactorizations: settings.max_refactorizations,
-        steering_slew_weight: weight,
+        steering_slew_weight,
         repeat,
         barrier: settings.barrier.name(),
         runs,
     })
-}
-
-/// The objective in words, for table titles.
-pub fn objective_label(steering_slew_weight: f64) -> String {
-    if steering_slew_weight == 0.0 {
-        "objective t_N (paper eq. 3)".into()
-    } else {
-        format!("objective t_N + {steering_slew_weight} x steering slew")
-    }
 }
 
 /// The table of one guess (Table II: equilibrium, Table III: zero), one row per segment.
@@ -209,7 +196,7 @@ pub fn table(study: &SegmentsStudy, guess: &str) -> String {
         study.barrier,
         study.repeat,
         study.max_refactorizations,
-        objective_label(study.steering_slew_weight)
+        crate::ocp::objective::label(study.steering_slew_weight)
     );
     let _ = writeln!(
         s,

@@ -616,8 +616,7 @@ impl<K: KktSolver> Solver<K> {
             }
             ws.lo_orig[j] = l;
             ws.hi_orig[j] = u;
-            ws.has_lo[j] = l.is_finite();
-            ws.has_hi[j] = u.is_finite();
+            ws.set_bounds_present(j, l.is_finite(), u.is_finite());
             if ws.has_lo[j] {
                 ws.lo[j] = l - s.bound_relax * l.abs().max(1.0);
                 ws.n_compl += 1;

@@ -31,6 +31,11 @@ pub struct Workspace {
     pub has_lo: Vec<bool>,
     /// w entry has an upper bound.
     pub has_hi: Vec<bool>,
+    /// `has_lo` as 1.0 / 0.0: the vector kernels select on a compare of these (a bool
+    /// lane cost a byte-to-mask shuffle and kept the compiler from whole AVX2 vectors).
+    pub on_lo: Vec<f64>,
+    /// `has_hi` as 1.0 / 0.0.
+    pub on_hi: Vec<f64>,
     /// Number of complementarity pairs.
     pub n_compl: usize,
     /// Jacobian row indices.
@@ -134,6 +139,14 @@ pub struct Workspace {
 }
 
 impl Workspace {
+    /// Marks which bounds entry j of w has (`has_lo`/`has_hi` and their f64 copies).
+    pub fn set_bounds_present(&mut self, j: usize, lo: bool, hi: bool) {
+        self.has_lo[j] = lo;
+        self.has_hi[j] = hi;
+        self.on_lo[j] = if lo { 1.0 } else { 0.0 };
+        self.on_hi[j] = if hi { 1.0 } else { 0.0 };
+    }
+
     /// Runs the vector kernels in their AVX2 copy when `on` and the CPU has AVX2 (the
     /// default where available); same bits either way.
     pub fn set_simd(&mut self, on: bool) {
@@ -168,6 +181,8 @@ impl Workspace {
             hi_orig: v(nw),
             has_lo: vec![false; nw],
             has_hi: vec![false; nw],
+            on_lo: v(nw),
+            on_hi: v(nw),
             n_compl: 0,
             jac_rows,
             jac_cols,

@@ -9,6 +9,8 @@
 
 use super::workspace::Workspace;
 
+mod avx2;
+
 /// Generates a kernel from a body: an `#[inline(always)]` body, an AVX2 copy of it and a
 /// dispatcher on `Workspace::simd` (set at setup from [`crate::cpu::avx2_available`]).
 macro_rules! kernel {
@@ -77,25 +79,123 @@ kernel! {
     }
 }
 
+/// The bound data of one entry (or, with `[T; L]` fields, of L consecutive entries).
+#[derive(Clone, Copy)]
+pub(super) struct Entry<F, B> {
+    w: F,
+    lo: F,
+    hi: F,
+    dw: F,
+    zl: F,
+    zu: F,
+    dzl: F,
+    dzu: F,
+    hl: B,
+    hh: B,
+}
+
+/// The slices [`Entry`] reads, cut to the n + m entries of w.
+pub(super) struct Entries<'a> {
+    pub(super) w: &'a [f64],
+    pub(super) lo: &'a [f64],
+    pub(super) hi: &'a [f64],
+    pub(super) dw: &'a [f64],
+    pub(super) zl: &'a [f64],
+    pub(super) zu: &'a [f64],
+    pub(super) dzl: &'a [f64],
+    pub(super) dzu: &'a [f64],
+    pub(super) hl: &'a [f64],
+    pub(super) hh: &'a [f64],
+}
+
+impl<'a> Entries<'a> {
+    #[inline(always)]
+    fn of(ws: &'a Workspace) -> Self {
+        let nw = ws.n + ws.m;
+        Self {
+            w: &ws.w[..nw],
+            lo: &ws.lo[..nw],
+            hi: &ws.hi[..nw],
+            dw: &ws.dw[..nw],
+            zl: &ws.zl[..nw],
+            zu: &ws.zu[..nw],
+            dzl: &ws.dzl[..nw],
+            dzu: &ws.dzu[..nw],
+            hl: &ws.on_lo[..nw],
+            hh: &ws.on_hi[..nw],
+        }
+    }
+
+    /// [`Self::of`] and `tmp_w` (the dual residual [`bound_errors`] completes), borrowed
+    /// apart.
+    #[inline(always)]
+    fn with_residual(ws: &'a mut Workspace) -> (Self, &'a mut [f64]) {
+        let nw = ws.n + ws.m;
+        let es = Self {
+            w: &ws.w[..nw],
+            lo: &ws.lo[..nw],
+            hi: &ws.hi[..nw],
+            dw: &ws.dw[..nw],
+            zl: &ws.zl[..nw],
+            zu: &ws.zu[..nw],
+            dzl: &ws.dzl[..nw],
+            dzu: &ws.dzu[..nw],
+            hl: &ws.on_lo[..nw],
+            hh: &ws.on_hi[..nw],
+        };
+        (es, &mut ws.tmp_w[..nw])
+    }
+
+    /// Number of whole lane groups.
+    #[inline(always)]
+    pub(super) fn groups(&self) -> usize {
+        self.w.len() / L
+    }
+
+    /// Entry j.
+    #[inline(always)]
+    fn one(&self, j: usize) -> Entry<f64, f64> {
+        Entry {
+            w: self.w[j],
+            lo: self.lo[j],
+            hi: self.hi[j],
+            dw: self.dw[j],
+            zl: self.zl[j],
+            zu: self.zu[j],
+            dzl: self.dzl[j],
+            dzu: self.dzu[j],
+            hl: self.hl[j],
+            hh: self.hh[j],
+        }
+    }
+}
+
 /// One entry's fraction-to-the-boundary limits (primal, dual); 1 where none applies.
 #[inline(always)]
-fn step_limits(ws: &Workspace, j: usize, tau: f64) -> (f64, f64) {
-    let d = ws.dw[j];
-    let (hl, hh) = (ws.has_lo[j], ws.has_hi[j]);
-    let cl = -tau * (ws.w[j] - ws.lo[j]) / d;
-    let cu = tau * (ws.hi[j] - ws.w[j]) / d;
-    let dl = -tau * ws.zl[j] / ws.dzl[j];
-    let du = -tau * ws.zu[j] / ws.dzu[j];
-    let cl = if hl && d < 0.0 { cl } else { 1.0 };
-    let cu = if hh && d > 0.0 { cu } else { 1.0 };
-    let dl = if hl && ws.dzl[j] < 0.0 { dl } else { 1.0 };
-    let du = if hh && ws.dzu[j] < 0.0 { du } else { 1.0 };
+fn step_limits(e: Entry<f64, f64>, tau: f64) -> (f64, f64) {
+    let d = e.dw;
+    let cl = -tau * (e.w - e.lo) / d;
+    let cu = tau * (e.hi - e.w) / d;
+    let dl = -tau * e.zl / e.dzl;
+    let du = -tau * e.zu / e.dzu;
+    let cl = if (e.hl > 0.0) & (d < 0.0) { cl } else { 1.0 };
+    let cu = if (e.hh > 0.0) & (d > 0.0) { cu } else { 1.0 };
+    let dl = if (e.hl > 0.0) & (e.dzl < 0.0) {
+        dl
+    } else {
+        1.0
+    };
+    let du = if (e.hh > 0.0) & (e.dzu < 0.0) {
+        du
+    } else {
+        1.0
+    };
     (min(cl, cu), min(dl, du))
 }
 
 /// Lanes of the reductions: entry j goes to lane j % L (the tail to lane 0), and the lanes
 /// are combined in a fixed order, so both copies reduce identically.
-const L: usize = 4;
+pub(super) const L: usize = 4;
 
 /// Lanes combined by `f` as f(f(a0, a1), f(a2, a3)).
 #[inline(always)]
@@ -123,28 +223,30 @@ fn max(a: f64, b: f64) -> f64 {
     }
 }
 
-kernel! {
-    /// Largest primal and dual steps in (0, 1] keeping a fraction tau of the distance to
-    /// the bounds (fraction-to-the-boundary rule).
-    pub fn max_steps(ws: &Workspace, tau: f64) -> (f64, f64) {
-        let nw = ws.n + ws.m;
-        let mut ap = [1.0f64; L];
-        let mut ad = [1.0f64; L];
-        let full = nw / L * L;
-        for base in (0..full).step_by(L) {
-            for l in 0..L {
-                let (p, d) = step_limits(ws, base + l, tau);
-                ap[l] = min(ap[l], p);
-                ad[l] = min(ad[l], d);
-            }
-        }
-        for j in full..nw {
-            let (p, d) = step_limits(ws, j, tau);
-            ap[0] = min(ap[0], p);
-            ad[0] = min(ad[0], d);
-        }
-        (fold(ap, min), fold(ad, min))
+/// Largest primal and dual steps in (0, 1] keeping a fraction tau of the distance to the
+/// bounds (fraction-to-the-boundary rule).
+pub fn max_steps(ws: &Workspace, tau: f64) -> (f64, f64) {
+    let es = Entries::of(ws);
+    let (mut ap, mut ad) =
+        (avx2::dispatch_max_steps(ws.simd, &es, tau)).unwrap_or_else(|| max_steps_lanes(&es, tau));
+    for j in es.groups() * L..es.w.len() {
+        let (p, d) = step_limits(es.one(j), tau);
+        ap[0] = min(ap[0], p);
+        ad[0] = min(ad[0], d);
     }
+    (fold(ap, min), fold(ad, min))
+}
+
+/// The whole lane groups of [`max_steps`] (entry j in lane j % L), baseline copy.
+fn max_steps_lanes(es: &Entries<'_>, tau: f64) -> ([f64; L], [f64; L]) {
+    let mut ap = [1.0f64; L];
+    let mut ad = [1.0f64; L];
+    for j in 0..es.groups() * L {
+        let (p, d) = step_limits(es.one(j), tau);
+        ap[j % L] = min(ap[j % L], p);
+        ad[j % L] = min(ad[j % L], d);
+    }
+    (ap, ad)
 }
 
 kernel! {
@@ -245,21 +347,22 @@ pub struct BoundErrors {
     pub compl_sum: f64,
 }
 
-/// One entry of [`bound_errors`]: the completed dual residual and the entry's
-/// (|s_l z_l|, |s_u z_u|, |s_l z_l - mu|, |s_u z_u - mu|, |z_l| + |z_u|, s_l z_l + s_u z_u).
+/// One entry of [`bound_errors`] (`r` its dual residual so far): the completed dual
+/// residual and the entry's (|s_l z_l|, |s_u z_u|, |s_l z_l - mu|, |s_u z_u - mu|,
+/// |z_l| + |z_u|, s_l z_l + s_u z_u).
 #[inline(always)]
-fn bound_error_entry(ws: &Workspace, j: usize, mu: f64) -> (f64, [f64; 6]) {
-    let (zl, zu) = (ws.zl[j], ws.zu[j]);
+fn bound_error_entry(e: Entry<f64, f64>, r: f64, mu: f64) -> (f64, [f64; 6]) {
+    let (zl, zu) = (e.zl, e.zu);
     // Absent bounds have z = 0.
-    let rj = (ws.tmp_w[j] - zl) + zu;
-    let pl = (ws.w[j] - ws.lo[j]) * zl;
-    let pu = (ws.hi[j] - ws.w[j]) * zu;
-    let (pl, ql) = if ws.has_lo[j] {
+    let rj = (r - zl) + zu;
+    let pl = (e.w - e.lo) * zl;
+    let pu = (e.hi - e.w) * zu;
+    let (pl, ql) = if e.hl > 0.0 {
         (pl, (pl - mu).abs())
     } else {
         (0.0, 0.0)
     };
-    let (pu, qu) = if ws.has_hi[j] {
+    let (pu, qu) = if e.hh > 0.0 {
         (pu, (pu - mu).abs())
     } else {
         (0.0, 0.0)
@@ -280,34 +383,34 @@ fn accumulate(acc: &mut [[f64; L]; 5], l: usize, rj: f64, e: &[f64; 6]) {
     acc[4][l] += e[5];
 }
 
-kernel! {
-    /// Completes the dual residual in `tmp_w` (it holds grad f + J^T y and -y on the
-    /// slacks): tmp_w -= z_l - z_u; returns its max norm and the complementarity measures.
-    pub fn bound_errors(ws: &mut Workspace, mu: f64) -> BoundErrors {
-        let nw = ws.n + ws.m;
-        // Lanes: inf_du, compl, compl_mu, z_sum, compl_sum.
+/// Completes the dual residual in `tmp_w` (it holds grad f + J^T y and -y on the slacks):
+/// tmp_w -= z_l - z_u; returns its max norm and the complementarity measures.
+pub fn bound_errors(ws: &mut Workspace, mu: f64) -> BoundErrors {
+    let nw = ws.n + ws.m;
+    let simd = ws.simd;
+    let (es, r) = Entries::with_residual(ws);
+    // Lanes: inf_du, compl, compl_mu, z_sum, compl_sum.
+    let mut acc = avx2::dispatch_bound_errors(simd, &es, r, mu).unwrap_or_else(|| {
         let mut acc = [[0.0f64; L]; 5];
-        let full = nw / L * L;
-        for base in (0..full).step_by(L) {
-            for l in 0..L {
-                let (rj, e) = bound_error_entry(ws, base + l, mu);
-                ws.tmp_w[base + l] = rj;
-                accumulate(&mut acc, l, rj, &e);
-            }
+        for j in 0..es.groups() * L {
+            let (rj, e) = bound_error_entry(es.one(j), r[j], mu);
+            r[j] = rj;
+            accumulate(&mut acc, j % L, rj, &e);
         }
-        for j in full..nw {
-            let (rj, e) = bound_error_entry(ws, j, mu);
-            ws.tmp_w[j] = rj;
-            accumulate(&mut acc, 0, rj, &e);
-        }
-        let [inf_du, compl, compl_mu, z_sum, compl_sum] = acc;
-        BoundErrors {
-            inf_du: fold(inf_du, max),
-            compl: fold(compl, max),
-            compl_mu: fold(compl_mu, max),
-            z_sum: fold(z_sum, |a, b| a + b),
-            compl_sum: fold(compl_sum, |a, b| a + b),
-        }
+        acc
+    });
+    for j in es.groups() * L..nw {
+        let (rj, e) = bound_error_entry(es.one(j), r[j], mu);
+        r[j] = rj;
+        accumulate(&mut acc, 0, rj, &e);
+    }
+    let [inf_du, compl, compl_mu, z_sum, compl_sum] = acc;
+    BoundErrors {
+        inf_du: fold(inf_du, max),
+        compl: fold(compl, max),
+        compl_mu: fold(compl_mu, max),
+        z_sum: fold(z_sum, |a, b| a + b),
+        compl_sum: fold(compl_sum, |a, b| a + b),
     }
 }
 
@@ -355,8 +458,7 @@ mod tests {
         let nw = ws.n + ws.m;
         for j in 0..nw {
             let (hl, hh) = (j % 4 == 1 || j % 4 == 3, j % 4 >= 2);
-            ws.has_lo[j] = hl;
-            ws.has_hi[j] = hh;
+            ws.set_bounds_present(j, hl, hh);
             ws.lo[j] = if hl { -1.0 - rnd() } else { f64::NEG_INFINITY };
             ws.hi[j] = if hh { 1.0 + rnd() } else { f64::INFINITY };
             ws.w[j] = rnd() * 1.8 - 0.9;

@@ -43,6 +43,52 @@ pub fn jac_t_mul(ws_rows: &[usize], ws_cols: &[usize], jac: &[f64], v: &[f64], o
     }
 }
 
+/// The Jacobian's entries grouped by column (stable: a column keeps its entries' order), for
+/// J^T v as a gather per column: the scatter of [`jac_t_mul`] stored to `out` once per entry.
+#[derive(Debug, Clone, Default)]
+pub struct ColumnJacobian {
+    /// Entries of column c: `entries[start[c]..start[c + 1]]`.
+    start: Vec<u32>,
+    /// (row, index into the values) per entry.
+    entries: Vec<(u32, u32)>,
+}
+
+impl ColumnJacobian {
+    /// Groups the pattern (`rows`, `cols`) of n columns; allocates (setup).
+    pub fn new(rows: &[usize], cols: &[usize], n: usize) -> Self {
+        let mut order: Vec<usize> = (0..cols.len()).collect();
+        order.sort_by_key(|&q| cols[q]);
+        let mut start = vec![0u32; n + 1];
+        for &c in cols {
+            if c < n {
+                start[c + 1] += 1;
+            }
+        }
+        for c in 0..n {
+            start[c + 1] += start[c];
+        }
+        let entries = order
+            .iter()
+            .filter(|&&q| cols[q] < n)
+            .map(|&q| (rows[q] as u32, q as u32))
+            .collect();
+        Self { start, entries }
+    }
+
+    /// out += J^T v with the bits of [`jac_t_mul`] (each out[c] takes its terms in the
+    /// pattern's order).
+    pub fn t_mul(&self, jac: &[f64], v: &[f64], out: &mut [f64]) {
+        for (c, o) in out.iter_mut().enumerate() {
+            let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
+            let mut acc = *o;
+            for &(r, q) in &self.entries[a..b] {
+                acc += jac[q as usize] * v[r as usize];
+            }
+            *o = acc;
+        }
+    }
+}
+
 /// out += J v (`out` has length m).
 pub fn jac_mul(ws_rows: &[usize], ws_cols: &[usize], jac: &[f64], v: &[f64], out: &mut [f64]) {
     for ((&r, &c), &a) in ws_rows.iter().zip(ws_cols).zip(jac) {
@@ -86,7 +132,7 @@ pub fn compute_errors(ws: &mut Workspace, mu: f64) -> Errors {
     let r = &mut ws.tmp_w;
     r[..n].copy_from_slice(&ws.grad);
     r[n..].iter_mut().for_each(|v| *v = 0.0);
-    jac_t_mul(&ws.jac_rows, &ws.jac_cols, &ws.jac, &ws.y, &mut r[..n]);
+    ws.jac_t.t_mul(&ws.jac, &ws.y, &mut r[..n]);
     ws.grad_lag.copy_from_slice(&ws.tmp_w[..n]);
     let (inf_pr, y_sum) = super::vector::slack_terms(ws);
     let super::vector::BoundErrors {

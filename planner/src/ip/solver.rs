@@ -232,13 +232,7 @@ impl<K: KktSolver> Solver<K> {
             nlp.eval_grad_f(&ws.w[..ws.n], &mut ws.grad);
             nlp.eval_jac_g(&ws.w[..ws.n], &mut ws.jac);
             times.evaluation += te.elapsed().as_secs_f64();
-            if self
-                .ws
-                .grad
-                .iter()
-                .chain(&self.ws.jac)
-                .any(|v| !v.is_finite())
-            {
+            if !vector::all_finite(&self.ws.grad) || !vector::all_finite(&self.ws.jac) {
                 status = Status::NumericalFailure;
                 break;
             }
@@ -354,7 +348,7 @@ impl<K: KktSolver> Solver<K> {
             let ws = &mut self.ws;
             nlp.eval_hess(&ws.w[..ws.n], 1.0, &ws.y, &mut ws.hess);
             times.evaluation += te.elapsed().as_secs_f64();
-            if self.ws.hess.iter().any(|v| !v.is_finite()) {
+            if !vector::all_finite(&self.ws.hess) {
                 status = Status::NumericalFailure;
                 break;
             }
@@ -448,6 +442,7 @@ impl<K: KktSolver> Solver<K> {
                 Globalization::Filter => self.filter_line_search(
                     nlp,
                     mu,
+                    theta_cur,
                     fact.delta_w,
                     (theta_min, theta_max),
                     &mut teval,
@@ -1286,13 +1281,7 @@ impl<K: KktSolver> Solver<K> {
                 ws.rhs_w[..n].copy_from_slice(&ws.grad_lag);
             } else {
                 ws.rhs_w[..n].copy_from_slice(&ws.grad);
-                residuals::jac_t_mul(
-                    &ws.jac_rows,
-                    &ws.jac_cols,
-                    &ws.jac,
-                    &ws.y,
-                    &mut ws.rhs_w[..n],
-                );
+                ws.jac_t.t_mul(&ws.jac, &ws.y, &mut ws.rhs_w[..n]);
             }
             for i in 0..m {
                 if !ws.is_eq[i] {
@@ -1343,14 +1332,16 @@ impl<K: KktSolver> Solver<K> {
         f - mu * b.value()
     }
 
-    /// Filter line search on (theta = ||c||_1, barrier objective) with second-order
-    /// corrections (Waechter & Biegler 2006, Sec. 2.3-2.4). Returns (alpha, backtracks,
+    /// Filter line search on (theta = ||c||_1, given for the current point, barrier
+    /// objective) with second-order corrections (Waechter & Biegler 2006, Sec. 2.3-2.4).
+    /// Returns (alpha, backtracks,
     /// used a second-order correction), or None when alpha fell below alpha_min.
     #[allow(clippy::too_many_arguments)]
     fn filter_line_search<P: Nlp + ?Sized>(
         &mut self,
         nlp: &mut P,
         mu: f64,
+        theta: f64,
         delta_w: f64,
         (theta_min, theta_max): (f64, f64),
         teval: &mut f64,
@@ -1367,7 +1358,6 @@ impl<K: KktSolver> Solver<K> {
         let tau = (1.0 - mu).max(s.tau_min);
         let (alpha_max, alpha_z) = self.max_steps(tau);
         let grad_d = self.barrier_grad_dot_dw(mu);
-        let theta = norm1(&self.ws.c);
         let phi = self.barrier_value(&self.ws.w, self.ws.f, mu);
         let alpha_min = {
             let g = 0.05;
@@ -1485,7 +1475,7 @@ impl<K: KktSolver> Solver<K> {
         }
         *teval += te.elapsed().as_secs_f64();
         *evals += 1;
-        if !f_t.is_finite() || self.ws.g_t.iter().any(|v| !v.is_finite()) {
+        if !f_t.is_finite() || !vector::all_finite(&self.ws.g_t) {
             return None;
         }
         let ws = &mut self.ws;

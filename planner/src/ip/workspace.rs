@@ -42,6 +42,8 @@ pub struct Workspace {
     pub jac_rows: Vec<usize>,
     /// Jacobian column indices.
     pub jac_cols: Vec<usize>,
+    /// The Jacobian pattern by columns (J^T products).
+    pub jac_t: super::residuals::ColumnJacobian,
     /// Hessian row indices (lower triangle).
     pub hess_rows: Vec<usize>,
     /// Hessian column indices.
@@ -184,6 +186,7 @@ impl Workspace {
             on_lo: v(nw),
             on_hi: v(nw),
             n_compl: 0,
+            jac_t: super::residuals::ColumnJacobian::new(&jac_rows, &jac_cols, n),
             jac_rows,
             jac_cols,
             hess_rows,

@@ -170,6 +170,21 @@ impl<'a> Entries<'a> {
     }
 }
 
+/// Whether every entry of `v` is finite. Not short-circuiting: x - x is +0 for a finite x
+/// and NaN otherwise, summed in 8 lanes (vectorized); `any(!is_finite)` ran one compare
+/// and branch per entry over the 16 k Jacobian and 7 k Hessian values of every iteration.
+pub fn all_finite(v: &[f64]) -> bool {
+    const W: usize = 8;
+    let (groups, tail) = v.as_chunks::<W>();
+    let mut acc = [0.0f64; W];
+    for g in groups {
+        for (a, &x) in acc.iter_mut().zip(g) {
+            *a += x - x;
+        }
+    }
+    acc.iter().all(|a| *a == 0.0) && tail.iter().all(|x| x.is_finite())
+}
+
 /// One entry's fraction-to-the-boundary limits (primal, dual); 1 where none applies.
 #[inline(always)]
 fn step_limits(e: Entry<f64, f64>, tau: f64) -> (f64, f64) {

@@ -33,6 +33,10 @@ pub struct Solver<K: KktSolver = KktBackend> {
     kkt: K,
     /// Regularization of the last iteration that needed one (IPOPT's delta_w^last).
     delta_w_last: f64,
+    /// Barrier objective of the current point and the mu (bits) it was taken at, when the
+    /// filter line search accepted the point and nothing has moved it since (the next
+    /// search starts from it instead of recomputing it; same bits).
+    phi_current: Option<(u64, f64)>,
 }
 
 /// Outcome of factorizing with inertia correction.
@@ -79,6 +83,7 @@ impl<K: KktSolver> Solver<K> {
             ws,
             kkt,
             delta_w_last: 0.0,
+            phi_current: None,
         })
     }
 
@@ -163,6 +168,7 @@ impl<K: KktSolver> Solver<K> {
         };
         self.ws.log.clear();
         self.delta_w_last = 0.0;
+        self.phi_current = None;
         let s = self.settings;
 
         if !self.initialize(nlp, &mut info, &mut times) {
@@ -708,6 +714,7 @@ impl<K: KktSolver> Solver<K> {
     }
 
     fn restore_best(&mut self) {
+        self.phi_current = None;
         let ws = &mut self.ws;
         ws.grad_lag_fresh = false;
         ws.w.copy_from_slice(&ws.best_w);
@@ -1358,7 +1365,10 @@ impl<K: KktSolver> Solver<K> {
         let tau = (1.0 - mu).max(s.tau_min);
         let (alpha_max, alpha_z) = self.max_steps(tau);
         let grad_d = self.barrier_grad_dot_dw(mu);
-        let phi = self.barrier_value(&self.ws.w, self.ws.f, mu);
+        let phi = match self.phi_current.take() {
+            Some((bits, phi)) if bits == mu.to_bits() => phi,
+            _ => self.barrier_value(&self.ws.w, self.ws.f, mu),
+        };
         let alpha_min = {
             let g = 0.05;
             if grad_d < 0.0 {
@@ -1397,6 +1407,7 @@ impl<K: KktSolver> Solver<K> {
                     self.augment_filter((1.0 - GAMMA_THETA) * theta, phi - GAMMA_PHI * theta);
                 }
                 self.accept(f_t, alpha, alpha_z, mu, true);
+                self.phi_current = Some((mu.to_bits(), phi_t));
                 return Some((alpha, bt, false));
             }
             // Second-order corrections on the first trial when the violation grew.
@@ -1430,6 +1441,7 @@ impl<K: KktSolver> Solver<K> {
                             );
                         }
                         self.accept(f_s, ap, az, mu, true);
+                        self.phi_current = Some((mu.to_bits(), phi_s));
                         accepted = true;
                         alpha = ap;
                         break;
@@ -1647,6 +1659,7 @@ impl<K: KktSolver> Solver<K> {
 
     /// Takes the step: w = w_t (already holding w + alpha dw), y += alpha dy, z += alpha_z dz.
     fn accept(&mut self, f_t: f64, alpha: f64, alpha_z: f64, mu: f64, update_y: bool) {
+        self.phi_current = None;
         let ws = &mut self.ws;
         ws.grad_lag_fresh = false;
         let m = ws.m;

@@ -7,6 +7,8 @@
 //! `riccati/factorize_pipelined_new_jacobian` is the same over two threads, and
 //! `riccati/factorize_new_jacobian_cold` starts each factorization with cold caches (4 MB
 //! written first, untimed), as in a solve, where evaluation and line search run in between.
+//! `riccati_split/*` is the backend the solver uses on this OCP: the arc length s split off
+//! as a decoupled chain, the rest in 8-state blocks.
 
 use bench::OvalKkt;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -96,6 +98,26 @@ fn kkt(c: &mut Criterion) {
             bx.copy_from_slice(&rhs_x);
             by.copy_from_slice(&rhs_y);
             ric.solve(black_box(&mut bx), black_box(&mut by));
+        })
+    });
+    // What the solver runs: the arc length s split off, 8-state blocks.
+    let mut split = sys.split_riccati();
+    g.bench_function("riccati_split/factorize", |b| {
+        b.iter(|| split.factorize(black_box(&values0)).expect("factorizes"))
+    });
+    g.bench_function("riccati_split/factorize_new_jacobian", |b| {
+        b.iter(|| {
+            flip = !flip;
+            let v = if flip { &values1 } else { &values0 };
+            split.factorize(black_box(v)).expect("factorizes")
+        })
+    });
+    split.factorize(&values0).expect("factorizes");
+    g.bench_function("riccati_split/solve", |b| {
+        b.iter(|| {
+            bx.copy_from_slice(&rhs_x);
+            by.copy_from_slice(&rhs_y);
+            split.solve(black_box(&mut bx), black_box(&mut by));
         })
     });
     g.finish();

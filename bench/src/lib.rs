@@ -142,7 +142,20 @@ impl OvalKkt {
         .expect("sparse setup")
     }
 
-    /// The Riccati backend for this pattern.
+    /// The Riccati backend with the arc-length state split off (what the solver uses).
+    pub fn split_riccati(&self) -> planner::ip::kkt::backend::VehicleSplitRiccati {
+        planner::ip::kkt::backend::split_riccati(
+            &self.structure,
+            self.n,
+            &self.hess_rows,
+            &self.hess_cols,
+            &self.jac_rows,
+            &self.jac_cols,
+        )
+        .expect("split riccati setup")
+    }
+
+    /// The Riccati backend for this pattern (on the whole system).
     pub fn riccati(&self) -> planner::ip::kkt::backend::VehicleRiccati {
         planner::ip::kkt::backend::VehicleRiccati::new(
             &self.structure,

@@ -8,7 +8,8 @@ use std::path::Path;
 use common::Rng;
 use planner::config::{load_scenario, load_solver, load_vehicle};
 use planner::guess::GuessKind;
-use planner::ip::kkt::backend::VehicleRiccati;
+use planner::ip::kkt::backend::{split_riccati, VehicleRiccati, VehicleSplitRiccati};
+use planner::ip::kkt::chain::Reduced;
 use planner::ip::kkt::{Inertia, KktBackendKind, KktError, KktSolver, KktValues, SparseLdlt};
 use planner::ip::{Nlp, Status};
 use planner::ocp::transcription::ImplicitEulerNlp;
@@ -151,6 +152,25 @@ fn riccati_for(structure: &planner::ip::kkt::StageStructure, s: &System) -> Vehi
     VehicleRiccati::new(structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc).unwrap()
 }
 
+/// The Riccati backend with the arc-length state split off ([`planner::ip::kkt::chain`]).
+fn split_for(structure: &planner::ip::kkt::StageStructure, s: &System) -> VehicleSplitRiccati {
+    let red = Reduced::detect(structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc)
+        .expect("the arc length s is a chain state");
+    assert_eq!(red.structure.nx, 8, "exactly one chain state (s)");
+    split_riccati(structure, s.n, &s.hr, &s.hc, &s.jr, &s.jc).expect("split backend")
+}
+
+/// Both structured backends: on the whole system and with s split off.
+fn structured(
+    structure: &planner::ip::kkt::StageStructure,
+    s: &System,
+) -> [(&'static str, Box<dyn KktSolver>); 2] {
+    [
+        ("riccati", Box::new(riccati_for(structure, s))),
+        ("split", Box::new(split_for(structure, s))),
+    ]
+}
+
 fn check_same_steps(initial: InitialState, delta_c: f64, seed: u64) {
     let mut spec = oval_spec();
     spec.initial = initial;
@@ -165,47 +185,47 @@ fn check_same_steps(initial: InitialState, delta_c: f64, seed: u64) {
         let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
         // Its LDL^T without pivoting needs a few refinement steps to be a reference.
         sparse.set_refine_steps(5);
-        let mut ric = riccati_for(&structure, &s);
         let in_s = sparse.factorize(&values).unwrap();
-        let in_r = ric.factorize(&values).unwrap();
-        assert_eq!(in_s, in_r, "inertia, trial {trial}");
-        assert_eq!(in_r.positive + in_r.negative, s.n + s.m);
-
         let bx: Vec<f64> = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
         let by: Vec<f64> = (0..s.m).map(|_| rng.range(-1.0, 1.0)).collect();
         let (mut xs, mut ys) = (bx.clone(), by.clone());
         sparse.solve(&mut xs, &mut ys);
-        let (mut xr, mut yr) = (bx.clone(), by.clone());
-        ric.solve(&mut xr, &mut yr);
+        for (name, mut ric) in structured(&structure, &s) {
+            let in_r = ric.factorize(&values).unwrap();
+            assert_eq!(in_s, in_r, "{name}: inertia, trial {trial}");
+            assert_eq!(in_r.positive + in_r.negative, s.n + s.m);
+            let (mut xr, mut yr) = (bx.clone(), by.clone());
+            ric.solve(&mut xr, &mut yr);
 
-        // Both solve the system...
-        let b_norm = inf_norm(&bx).max(inf_norm(&by));
-        for (name, x, y) in [("sparse", &xs, &ys), ("riccati", &xr, &yr)] {
-            let (kx, ky) = matvec(&s, x, y);
-            let res = kx
+            // Both solve the system...
+            let b_norm = inf_norm(&bx).max(inf_norm(&by));
+            for (name, x, y) in [("sparse", &xs, &ys), (name, &xr, &yr)] {
+                let (kx, ky) = matvec(&s, x, y);
+                let res = kx
+                    .iter()
+                    .zip(&bx)
+                    .chain(ky.iter().zip(&by))
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                let scale = inf_norm(x).max(inf_norm(y)).max(b_norm);
+                eprintln!("{name}: residual {res:e} (scale {scale:e})");
+                assert!(
+                    res <= 1e-9 * scale,
+                    "{name} does not solve the system: residual {res:e} against {scale:e} (trial {trial})"
+                );
+            }
+            // ... and agree.
+            let sol_norm = inf_norm(&xs).max(inf_norm(&ys));
+            let diff = xs
                 .iter()
-                .zip(&bx)
-                .chain(ky.iter().zip(&by))
+                .zip(&xr)
+                .chain(ys.iter().zip(&yr))
                 .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-            let scale = inf_norm(x).max(inf_norm(y)).max(b_norm);
-            eprintln!("{name}: residual {res:e} (scale {scale:e})");
+            eprintln!("{name} trial {trial}: |dx| {sol_norm:e}, max diff {diff:e}");
             assert!(
-                res <= 1e-9 * scale,
-                "{name} does not solve the system: residual {res:e} against {scale:e} (trial {trial})"
+                diff <= 1e-9 * sol_norm,
+                "{name}: steps differ: {diff:e} against |step| {sol_norm:e} (trial {trial})"
             );
         }
-        // ... and agree.
-        let sol_norm = inf_norm(&xs).max(inf_norm(&ys));
-        let diff = xs
-            .iter()
-            .zip(&xr)
-            .chain(ys.iter().zip(&yr))
-            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        eprintln!("trial {trial}: |dx| {sol_norm:e}, max diff {diff:e}");
-        assert!(
-            diff <= 1e-9 * sol_norm,
-            "steps differ: {diff:e} against |step| {sol_norm:e} (trial {trial})"
-        );
     }
 }
 
@@ -239,6 +259,8 @@ fn oval_same_optimum_with_both_backends() {
     assert_eq!(ir.status, Status::Optimal, "{ir:?}");
     assert_eq!(rp.solver().kkt().name(), "riccati");
     assert_eq!(rp.solver().kkt().fallbacks(), 0);
+    // The arc length s is split off: the sweep runs on 8-state blocks.
+    assert_eq!(rp.solver().kkt().chain_states(), 1);
     let t_s = sp.states()[100][8];
     let t_r = rp.states()[100][8];
     assert!((t_s - t_r).abs() < 1e-6 * t_s, "{t_s} vs {t_r}");
@@ -306,14 +328,15 @@ fn inertia_matches_dense_eigenvalues() {
         for trial in 0..4 {
             let s = system(&mut nlp, &mut rng, 1e-8, true);
             let values = s.values();
-            let mut ric = riccati_for(&structure, &s);
             let mut sparse = SparseLdlt::new(s.n, s.m, &s.hr, &s.hc, &s.jr, &s.jc).unwrap();
             let (pos, neg, zero) = dense_inertia(&s);
-            let r = ric.factorize(&values);
             let sp = sparse.factorize(&values);
-            eprintln!("seed {seed} trial {trial}: dense ({pos}, {neg}, {zero}) riccati {r:?} sparse {sp:?}");
-            let r = r.unwrap();
-            assert_eq!((r.positive, r.negative, r.zero), (pos, neg, zero));
+            for (name, mut ric) in structured(&structure, &s) {
+                let r = ric.factorize(&values);
+                eprintln!("seed {seed} trial {trial}: dense ({pos}, {neg}, {zero}) {name} {r:?} sparse {sp:?}");
+                let r = r.unwrap();
+                assert_eq!((r.positive, r.negative, r.zero), (pos, neg, zero), "{name}");
+            }
         }
     }
 }
@@ -442,36 +465,37 @@ fn steps_match_dense_solve() {
             }
         }
         let values = s.values();
-        let mut ric = riccati_for(&structure, &s);
-        ric.factorize(&values).unwrap();
         let bx: Vec<f64> = (0..s.n).map(|_| rng.range(-1.0, 1.0)).collect();
         let by: Vec<f64> = (0..s.m).map(|_| rng.range(-1.0, 1.0)).collect();
-        let (mut x, mut y) = (bx.clone(), by.clone());
-        ric.solve(&mut x, &mut y);
         let exact = dense_solve(&s, &bx, &by);
         let norm = inf_norm(&exact);
-        let diff = x
-            .iter()
-            .chain(&y)
-            .zip(&exact)
-            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        let residual = |x: &[f64], y: &[f64]| {
-            let (kx, ky) = matvec(&s, x, y);
-            kx.iter()
-                .zip(&bx)
-                .chain(ky.iter().zip(&by))
-                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
-        };
-        let (ex, ey) = exact.split_at(s.n);
-        eprintln!(
-            "seed {seed}: diff {diff:e}, |step| {norm:e}, residual riccati {:e} dense {:e}",
-            residual(&x, &y),
-            residual(ex, ey)
-        );
-        assert!(
-            diff <= 1e-9 * norm,
-            "seed {seed}: diff {diff:e}, |step| {norm:e}"
-        );
+        for (name, mut ric) in structured(&structure, &s) {
+            ric.factorize(&values).unwrap();
+            let (mut x, mut y) = (bx.clone(), by.clone());
+            ric.solve(&mut x, &mut y);
+            let diff = x
+                .iter()
+                .chain(&y)
+                .zip(&exact)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            let residual = |x: &[f64], y: &[f64]| {
+                let (kx, ky) = matvec(&s, x, y);
+                kx.iter()
+                    .zip(&bx)
+                    .chain(ky.iter().zip(&by))
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+            };
+            let (ex, ey) = exact.split_at(s.n);
+            eprintln!(
+                "seed {seed}: {name} diff {diff:e}, |step| {norm:e}, residual {:e} dense {:e}",
+                residual(&x, &y),
+                residual(ex, ey)
+            );
+            assert!(
+                diff <= 1e-9 * norm,
+                "seed {seed}: {name} diff {diff:e}, |step| {norm:e}"
+            );
+        }
     }
 }
 

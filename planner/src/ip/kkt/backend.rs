@@ -2,6 +2,7 @@
 //! the general sparse LDL^T as fallback for other structures and for the rare values the
 //! Riccati sweep cannot take (a singular dynamics Jacobian).
 
+use super::chain::{ChainSplit, Reduced};
 use super::riccati::{RiccatiKkt, StructureError};
 use super::sparse_ldlt::{SparseLdlt, SymbolicError};
 use super::structure::StageStructure;
@@ -45,6 +46,81 @@ impl KktBackendKind {
 /// The Riccati backend for the vehicle OCP's block sizes (9 states, 3 controls).
 pub type VehicleRiccati = RiccatiKkt<9, 3, 12>;
 
+/// The vehicle OCP's Riccati backend with its arc-length state split off
+/// ([`super::chain`]): 8-state blocks.
+pub type VehicleSplitRiccati = ChainSplit<RiccatiKkt<8, 3, 11>>;
+
+/// The vehicle OCP's Riccati backend with its arc-length state split off, when the pattern
+/// has exactly one chain state; `None` otherwise.
+pub fn split_riccati(
+    st: &StageStructure,
+    n: usize,
+    hess_rows: &[usize],
+    hess_cols: &[usize],
+    jac_rows: &[usize],
+    jac_cols: &[usize],
+) -> Option<VehicleSplitRiccati> {
+    let red = Reduced::detect(st, n, hess_rows, hess_cols, jac_rows, jac_cols)
+        .filter(|r| r.structure.nx == 8 && r.structure.nu == 3)?;
+    let inner = RiccatiKkt::<8, 3, 11>::new(
+        &red.structure,
+        red.n,
+        &red.hess_rows,
+        &red.hess_cols,
+        &red.jac_rows,
+        &red.jac_cols,
+    )
+    .ok()?;
+    Some(ChainSplit::new(red, inner))
+}
+
+/// The structured backend in use: on the whole system, or with the chain states split off.
+#[derive(Debug)]
+enum Structured {
+    Full(Box<VehicleRiccati>),
+    Split(Box<VehicleSplitRiccati>),
+}
+
+impl Structured {
+    /// The split backend when `st` has exactly one chain state, else the full one.
+    fn new(st: &StageStructure, pat: &Pattern<'_>) -> Result<Self, StructureError> {
+        let (hr, hc, jr, jc) = (pat.hess_rows, pat.hess_cols, pat.jac_rows, pat.jac_cols);
+        if let Some(split) = split_riccati(st, pat.n, hr, hc, jr, jc) {
+            return Ok(Self::Split(Box::new(split)));
+        }
+        VehicleRiccati::new(
+            st,
+            pat.n,
+            pat.hess_rows,
+            pat.hess_cols,
+            pat.jac_rows,
+            pat.jac_cols,
+        )
+        .map(|r| Self::Full(Box::new(r)))
+    }
+
+    fn set_pipelined(&mut self, on: bool) -> std::io::Result<()> {
+        match self {
+            Self::Full(r) => r.set_pipelined(on),
+            Self::Split(r) => r.inner_mut().set_pipelined(on),
+        }
+    }
+
+    fn worker(&self) -> Option<&crate::worker::SharedWorker> {
+        match self {
+            Self::Full(r) => r.worker(),
+            Self::Split(r) => r.inner().worker(),
+        }
+    }
+
+    fn solver(&mut self) -> &mut dyn KktSolver {
+        match self {
+            Self::Full(r) => r.as_mut(),
+            Self::Split(r) => r.as_mut(),
+        }
+    }
+}
+
 /// Why no backend could be built.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
@@ -65,7 +141,7 @@ pub enum BackendError {
 /// A KKT backend chosen at setup.
 #[derive(Debug)]
 pub struct KktBackend {
-    riccati: Option<Box<VehicleRiccati>>,
+    riccati: Option<Structured>,
     sparse: Option<SparseLdlt>,
     /// The last factorization was done by the sparse backend.
     on_sparse: bool,
@@ -119,17 +195,7 @@ impl KktBackend {
                 pat.jac_cols,
             )
         };
-        let riccati = |st: &StageStructure| {
-            VehicleRiccati::new(
-                st,
-                pat.n,
-                pat.hess_rows,
-                pat.hess_cols,
-                pat.jac_rows,
-                pat.jac_cols,
-            )
-            .map(Box::new)
-        };
+        let riccati = |st: &StageStructure| Structured::new(st, &pat);
         let (riccati, sparse) = match kind {
             KktBackendKind::Sparse => (None, Some(sparse()?)),
             KktBackendKind::Riccati => {
@@ -168,6 +234,15 @@ impl KktBackend {
         self.riccati.as_ref().and_then(|r| r.worker().cloned())
     }
 
+    /// States the Riccati backend split off as decoupled chains ([`super::chain`]): 1 for
+    /// the vehicle OCP (the arc length s), 0 when it runs on the whole system.
+    pub fn chain_states(&self) -> usize {
+        match self.riccati {
+            Some(Structured::Split(_)) => 1,
+            _ => 0,
+        }
+    }
+
     /// Factorizations the Riccati backend handed to the sparse one since setup.
     pub fn fallbacks(&self) -> usize {
         self.fallbacks
@@ -181,7 +256,7 @@ impl KktBackend {
         expected: Option<Inertia>,
     ) -> Result<Inertia, KktError> {
         self.on_sparse = false;
-        if let Some(r) = self.riccati.as_mut() {
+        if let Some(r) = self.riccati.as_mut().map(Structured::solver) {
             let res = match expected {
                 Some(e) => r.factorize_expecting(values, e),
                 None => r.factorize(values),
@@ -221,7 +296,7 @@ impl KktSolver for KktBackend {
 
     fn solve(&mut self, rhs_x: &mut [f64], rhs_y: &mut [f64]) {
         match (self.on_sparse, self.riccati.as_mut(), self.sparse.as_mut()) {
-            (false, Some(r), _) => r.solve(rhs_x, rhs_y),
+            (false, Some(r), _) => r.solver().solve(rhs_x, rhs_y),
             (_, _, Some(s)) => s.solve(rhs_x, rhs_y),
             _ => {}
         }

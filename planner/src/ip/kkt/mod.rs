@@ -14,6 +14,7 @@
 //! and `D_c` a non-positive dual diagonal.
 
 pub mod backend;
+pub mod chain;
 pub mod riccati;
 pub mod sparse_ldlt;
 pub mod structure;

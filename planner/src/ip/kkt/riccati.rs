@@ -40,6 +40,10 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 /// No target in the block arena.
 const NONE: u32 = u32::MAX;
 
+/// Row and column of a Jacobian entry this backend ignores: the values array keeps its
+/// slot (so a caller that split part of the system off passes its values unchanged).
+pub const SKIP_ENTRY: usize = usize::MAX;
+
 /// The pipelined factorization's helper publishes its progress every this many units (and
 /// after the last): a store per unit kept the counter's cache line bouncing between the
 /// two cores while the sweep polled it (one factorization of the oval, criterion: 265 us
@@ -356,6 +360,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         let mut jac_map = Vec::with_capacity(jac_rows.len());
         let mut per_path: Vec<Vec<PathEntry>> = vec![Vec::new(); n_path as usize];
         for (q, (&r, &c)) in jac_rows.iter().zip(jac_cols).enumerate() {
+            if r == SKIP_ENTRY && c == SKIP_ENTRY {
+                // Not this backend's (see `SKIP_ENTRY`): its value is never read.
+                jac_map.push(NONE);
+                continue;
+            }
             if r >= m || c >= n {
                 return Err(StructureError::Size(format!(
                     "Jacobian entry ({r}, {c}) out of range"

@@ -1507,8 +1507,8 @@ impl<K: KktSolver> Solver<K> {
     }
 
     /// grad(barrier objective) . dw at the current point.
-    fn barrier_grad_dot_dw(&mut self, mu: f64) -> f64 {
-        vector::barrier_grad_dot(&mut self.ws, mu)
+    fn barrier_grad_dot_dw(&self, mu: f64) -> f64 {
+        vector::barrier_grad_dot(&self.ws, mu)
     }
 
     /// Backtracking line search on phi_nu = barrier objective + nu ||c||_2 (paper eq. 5).

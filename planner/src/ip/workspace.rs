@@ -36,8 +36,6 @@ pub struct Workspace {
     pub on_lo: Vec<f64>,
     /// `has_hi` as 1.0 / 0.0.
     pub on_hi: Vec<f64>,
-    /// Per-entry terms of a reduction over w (scratch of the vector kernels).
-    pub terms: Vec<f64>,
     /// Number of complementarity pairs.
     pub n_compl: usize,
     /// Jacobian row indices.
@@ -187,7 +185,6 @@ impl Workspace {
             has_hi: vec![false; nw],
             on_lo: v(nw),
             on_hi: v(nw),
-            terms: v(nw),
             n_compl: 0,
             jac_t: super::residuals::ColumnJacobian::new(&jac_rows, &jac_cols, n),
             jac_rows,

@@ -267,23 +267,21 @@ fn max_steps_lanes(es: &Entries<'_>, tau: f64) -> ([f64; L], [f64; L]) {
 
 kernel! {
     /// grad(barrier objective) . dw: (grad_x, 0) - mu / (w - l) + mu / (u - w), dotted
-    /// with dw in index order. The terms go to `terms` first (an elementwise loop, which
-    /// vectorizes; the divisions dominate), then are summed in index order.
-    pub fn barrier_grad_dot(ws: &mut Workspace, mu: f64) -> f64 {
+    /// with dw in index order.
+    pub fn barrier_grad_dot(ws: &Workspace, mu: f64) -> f64 {
         let (n, nw) = (ws.n, ws.n + ws.m);
         let (w, lo, hi, dw) = (&ws.w[..nw], &ws.lo[..nw], &ws.hi[..nw], &ws.dw[..nw]);
-        let (hl, hh) = (&ws.on_lo[..nw], &ws.on_hi[..nw]);
-        let terms = &mut ws.terms[..nw];
-        let grad = &ws.grad[..n];
+        let (hl, hh) = (&ws.has_lo[..nw], &ws.has_hi[..nw]);
+        let mut gd = 0.0;
         for j in 0..nw {
-            let g0 = if j < n { grad[j] } else { 0.0 };
+            let g0 = if j < n { ws.grad[j] } else { 0.0 };
             let bl = mu / (w[j] - lo[j]);
             let bu = mu / (hi[j] - w[j]);
-            let gl = if hl[j] > 0.0 { g0 - bl } else { g0 };
-            let gj = if hh[j] > 0.0 { gl + bu } else { gl };
-            terms[j] = gj * dw[j];
+            let gl = if hl[j] { g0 - bl } else { g0 };
+            let gj = if hh[j] { gl + bu } else { gl };
+            gd += gj * dw[j];
         }
-        terms.iter().fold(0.0, |gd, &t| gd + t)
+        gd
     }
 }
 
@@ -506,7 +504,7 @@ mod tests {
         ws.set_simd(simd);
         let mut out = Vec::new();
         let (ap, ad) = max_steps(&ws, 0.99);
-        let gd = barrier_grad_dot(&mut ws, 0.1);
+        let gd = barrier_grad_dot(&ws, 0.1);
         let (pr, ys) = slack_terms(&mut ws);
         let e = bound_errors(&mut ws, 0.1);
         out.extend([
@@ -596,7 +594,7 @@ mod tests {
             }
             assert_eq!(max_steps(&ws, tau), (ap, ad));
             assert!(ap < 1.0 && ad < 1.0, "the case must limit both steps");
-            assert!(close(barrier_grad_dot(&mut ws, 0.1), gd));
+            assert!(close(barrier_grad_dot(&ws, 0.1), gd));
 
             let before = ws.clone();
             sigma(&mut ws);

@@ -54,7 +54,8 @@ pub struct ColumnJacobian {
 }
 
 impl ColumnJacobian {
-    /// Groups the pattern (`rows`, `cols`) of n columns; allocates (setup).
+    /// Groups the pattern (`rows`, `cols`) of n columns; allocates (setup). Entries outside
+    /// the n columns are left out (the KKT backends reject such a pattern at setup).
     pub fn new(rows: &[usize], cols: &[usize], n: usize) -> Self {
         let mut order: Vec<usize> = (0..cols.len()).collect();
         order.sort_by_key(|&q| cols[q]);
@@ -76,7 +77,7 @@ impl ColumnJacobian {
     }
 
     /// out += J^T v with the bits of [`jac_t_mul`] (each out[c] takes its terms in the
-    /// pattern's order).
+    /// pattern's order; a NaN's sign and payload aside).
     pub fn t_mul(&self, jac: &[f64], v: &[f64], out: &mut [f64]) {
         for (c, o) in out.iter_mut().enumerate() {
             let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);

@@ -48,8 +48,10 @@ struct Chain {
 }
 
 impl Chain {
-    /// Reads and factorizes this chain's block; returns its inertia, or the error for
-    /// values it cannot take (then the caller uses a general backend).
+    /// Reads and factorizes this chain's block; returns its inertia, or `NonFinite` /
+    /// `Singular` (a zero pivot determinant), which the solver answers like any backend's:
+    /// the backend does not hand those to the sparse one, and its inertia correction
+    /// raises the shifts (for the vehicle a_k = 1, so det <= -1 whatever they are).
     fn factorize(&mut self, v: &KktValues<'_>) -> Result<Inertia, KktError> {
         let len = self.vars.len();
         let mut inertia = Inertia::default();
@@ -183,6 +185,9 @@ impl Reduced {
         }
         let mut chain_state = vec![true; nx];
         for (&r, &c) in hess_rows.iter().zip(hess_cols) {
+            if r >= n || c >= n {
+                return None;
+            }
             for v in [r, c] {
                 if let Some((_, l)) = state_of(v) {
                     chain_state[l] = false;
@@ -554,6 +559,11 @@ mod tests {
         // A Hessian entry or a path row on x[1] couples it: no chain left.
         assert!(detect(&tiny(true, false)).is_none());
         assert!(detect(&tiny(false, true)).is_none());
+        // An out-of-range Hessian index is no structure, not a panic.
+        let mut bad = tiny(false, false);
+        bad.hr.push(bad.n);
+        bad.hc.push(0);
+        assert!(detect(&bad).is_none());
     }
 
     /// Steps and inertia of the split system against a dense solve and dense eigenvalues,

@@ -3,7 +3,8 @@
 //! with shuffles) however the lanes were staged. Lane l of every vector holds the entries
 //! j = l (mod 4) in index order, the lanes of the baseline copies, and every lane takes the
 //! baseline's operations in its order (`min(a, b)` is `_mm256_min_pd(b, a)`, `max(a, b)`
-//! is `_mm256_max_pd(b, a)`), so both copies give the same bits.
+//! is `_mm256_max_pd(b, a)`), so both copies give the same bits (a NaN's sign and payload
+//! aside, which Rust does not specify and which only ever meet a finiteness check).
 
 use super::{Entries, L};
 

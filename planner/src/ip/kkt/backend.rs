@@ -88,15 +88,7 @@ impl Structured {
         if let Some(split) = split_riccati(st, pat.n, hr, hc, jr, jc) {
             return Ok(Self::Split(Box::new(split)));
         }
-        VehicleRiccati::new(
-            st,
-            pat.n,
-            pat.hess_rows,
-            pat.hess_cols,
-            pat.jac_rows,
-            pat.jac_cols,
-        )
-        .map(|r| Self::Full(Box::new(r)))
+        VehicleRiccati::new(st, pat.n, hr, hc, jr, jc).map(|r| Self::Full(Box::new(r)))
     }
 
     fn set_pipelined(&mut self, on: bool) -> std::io::Result<()> {
@@ -237,8 +229,8 @@ impl KktBackend {
     /// States the Riccati backend split off as decoupled chains ([`super::chain`]): 1 for
     /// the vehicle OCP (the arc length s), 0 when it runs on the whole system.
     pub fn chain_states(&self) -> usize {
-        match self.riccati {
-            Some(Structured::Split(_)) => 1,
+        match &self.riccati {
+            Some(Structured::Split(r)) => r.chain_states(),
             _ => 0,
         }
     }

@@ -378,6 +378,11 @@ impl<K: KktSolver> ChainSplit<K> {
         }
     }
 
+    /// Number of chain states split off.
+    pub fn chain_states(&self) -> usize {
+        self.chains.len()
+    }
+
     /// The backend of the reduced system.
     pub fn inner(&self) -> &K {
         &self.inner

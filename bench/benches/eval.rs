@@ -61,5 +61,74 @@ fn eval(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, eval);
+/// The structured model pieces alone, over the 100 intervals of the same point: where the
+/// Hessian and Jacobian time goes (AVX2 copies, as the solver runs them on this CPU).
+fn pieces(c: &mut Criterion) {
+    use planner::ocp::fast;
+    let (nlp, z) = oval_nlp_at_reference();
+    let (xs, us) = nlp.trajectory_from(&z);
+    let p = nlp.spec().vehicle;
+    let kappa = nlp.spec().kappa.clone();
+    let w: [f64; planner::model::NX] = std::array::from_fn(|i| 0.3 - 0.1 * i as f64);
+
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn defect_h(
+        p: &planner::model::VehicleParams,
+        xs: &[[f64; 9]],
+        us: &[[f64; 3]],
+        kappa: &[f64],
+        w: &[f64; 9],
+    ) -> f64 {
+        let mut acc = 0.0;
+        for k in 0..us.len() {
+            acc += black_box(&fast::defect_hessian(
+                p,
+                &xs[k + 1],
+                &us[k],
+                kappa[k + 1],
+                w,
+            ))
+            .h[3][2];
+        }
+        acc
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn sat_h(p: &planner::model::VehicleParams, xs: &[[f64; 9]], us: &[[f64; 3]]) -> f64 {
+        let mut acc = 0.0;
+        for k in 0..us.len() {
+            acc += black_box(&fast::saturation_hessian(p, &xs[k], &us[k], [0.3, -0.2])).h[3][2];
+        }
+        acc
+    }
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn defect_j(
+        p: &planner::model::VehicleParams,
+        xs: &[[f64; 9]],
+        us: &[[f64; 3]],
+        kappa: &[f64],
+    ) -> f64 {
+        let mut acc = 0.0;
+        for k in 0..us.len() {
+            acc += black_box(&fast::defect_jacobian(p, &xs[k + 1], &us[k], kappa[k + 1]))[2].g[3];
+        }
+        acc
+    }
+    if !std::arch::is_x86_feature_detected!("avx2") || !std::arch::is_x86_feature_detected!("fma") {
+        return;
+    }
+    let mut g = c.benchmark_group("pieces_x100");
+    // SAFETY: AVX2 and FMA were detected above.
+    g.bench_function("defect_hessian", |b| {
+        b.iter(|| unsafe { defect_h(&p, black_box(&xs), &us, &kappa, &w) })
+    });
+    g.bench_function("saturation_hessian", |b| {
+        b.iter(|| unsafe { sat_h(&p, black_box(&xs), &us) })
+    });
+    g.bench_function("defect_jacobian", |b| {
+        b.iter(|| unsafe { defect_j(&p, black_box(&xs), &us, &kappa) })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, eval, pieces);
 criterion_main!(benches);

@@ -24,14 +24,14 @@ use crate::model::{iu, ix, VehicleParams, NU, NX};
 
 /// Number of tire inputs: [r, V, beta, V_wr, dFz, delta, T_bf] (also the saturation inputs).
 pub const NT: usize = 7;
+/// Position of each coefficient input [V, beta, delta] among the tire inputs.
+const COEF_TO_TIRE: [usize; 3] = [1, 2, 5];
 /// Number of defect inputs: [r, V, beta, V_wr, dFz, e, dpsi, delta, T_comb, T_bf].
 pub const NF: usize = 10;
 /// Position of each tire input among the defect inputs.
 pub const TIRE_TO_FULL: [usize; NT] = [0, 1, 2, 3, 4, 7, 9];
 /// Position of each slip input [r, V, beta, V_wr, delta] among the tire inputs.
 const SLIP_TO_TIRE: [usize; 5] = [0, 1, 2, 3, 5];
-/// Position of each coefficient input [V, beta, delta] among the tire inputs.
-const COEF_TO_TIRE: [usize; 3] = [1, 2, 5];
 
 // Tire-input indices.
 const T_DFZ: usize = 4;
@@ -77,11 +77,16 @@ fn smooth_floor<T: Arith>(d: T, q_min: f64) -> T {
     (dd + (dd * dd + q_min * q_min).sqrt()) * 0.5 + q_min
 }
 
-/// Front axle: [F_yf, sigma_f - sigma_sl,f] from (tan alpha_f, dFz, T_bf) (R1, R4, R6, R7).
+/// Front slip norm sigma_f (R6, with the eps guard) from tan alpha_f.
 #[inline(always)]
-pub fn front<T: Arith>(p: &VehicleParams, tan_alpha_f: T, dfz: T, t_bf: T) -> [T; 2] {
-    let eps2 = p.eps_sigma * p.eps_sigma;
-    let sigma = (tan_alpha_f * tan_alpha_f + eps2).sqrt();
+fn front_sigma<T: Arith>(p: &VehicleParams, tan_alpha_f: T) -> T {
+    (tan_alpha_f * tan_alpha_f + p.eps_sigma * p.eps_sigma).sqrt()
+}
+
+/// Front force capacity F_max,f de-rated by the brake force and floored (R7) from
+/// (dFz, T_bf).
+#[inline(always)]
+fn front_fmax<T: Arith>(p: &VehicleParams, dfz: T, t_bf: T) -> T {
     let fxf = t_bf / p.r_w;
     let mu_fzf = (-dfz + p.fz_nom_front()) * p.mu;
     let d = mu_fzf * mu_fzf - fxf * fxf;
@@ -89,18 +94,36 @@ pub fn front<T: Arith>(p: &VehicleParams, tan_alpha_f: T, dfz: T, t_bf: T) -> [T
         let f = p.fmax_floor_frac * p.mu * p.fz_nom_front();
         f * f
     };
-    let fmax = smooth_floor(d, q_min).sqrt();
+    smooth_floor(d, q_min).sqrt()
+}
+
+/// Front axle: [F_yf, sigma_f - sigma_sl,f] from (tan alpha_f, dFz, T_bf) (R1, R4, R6, R7).
+#[inline(always)]
+pub fn front<T: Arith>(p: &VehicleParams, tan_alpha_f: T, dfz: T, t_bf: T) -> [T; 2] {
+    let sigma = front_sigma(p, tan_alpha_f);
+    let fmax = front_fmax(p, dfz, t_bf);
     let ftotal = fiala(p.c_f, sigma, fmax);
     let fyf = -(ftotal / sigma * tan_alpha_f);
     [fyf, sigma - fmax * (3.0 / p.c_f)]
 }
 
+/// Rear slip norm sigma_r (R6, with the eps guard) from (tan alpha_r, kappa_r).
+#[inline(always)]
+fn rear_sigma<T: Arith>(p: &VehicleParams, tan_alpha_r: T, kappa_r: T) -> T {
+    (tan_alpha_r * tan_alpha_r + kappa_r * kappa_r + p.eps_sigma * p.eps_sigma).sqrt()
+}
+
+/// Rear force capacity F_max,r = mu F_zr from dFz.
+#[inline(always)]
+fn rear_fmax<T: Arith>(p: &VehicleParams, dfz: T) -> T {
+    (dfz + p.fz_nom_rear()) * p.mu
+}
+
 /// Rear axle: [F_xr, F_yr, sigma_r - sigma_sl,r] from (tan alpha_r, kappa_r, dFz).
 #[inline(always)]
 pub fn rear<T: Arith>(p: &VehicleParams, tan_alpha_r: T, kappa_r: T, dfz: T) -> [T; 3] {
-    let eps2 = p.eps_sigma * p.eps_sigma;
-    let sigma = (tan_alpha_r * tan_alpha_r + kappa_r * kappa_r + eps2).sqrt();
-    let fmax = (dfz + p.fz_nom_rear()) * p.mu;
+    let sigma = rear_sigma(p, tan_alpha_r, kappa_r);
+    let fmax = rear_fmax(p, dfz);
     let ftotal = fiala(p.c_r, sigma, fmax);
     let gr = ftotal / sigma;
     [
@@ -207,34 +230,32 @@ pub fn saturation_jacobian(p: &VehicleParams, x: &[f64; NX], u: &[f64; NU]) -> [
     tire_d1(p, &tire_inputs(x, u)).1
 }
 
-/// Slip jets (tan alpha_f, tan alpha_r, kappa_r) over the tire inputs, built over the 5 slip
-/// inputs and embedded.
+/// Slip jets (tan alpha_f, tan alpha_r, kappa_r) over the 5 slip inputs
+/// [r, V, beta, V_wr, delta] (tire inputs `SLIP_TO_TIRE`).
 #[inline(always)]
-fn slips_d2(p: &VehicleParams, ti: &[f64; NT]) -> [D2<NT>; 3] {
+fn slips_d2(p: &VehicleParams, ti: &[f64; NT]) -> [D2<5>; 3] {
     let s: [D2<5>; 5] = std::array::from_fn(|i| D2::var(ti[SLIP_TO_TIRE[i]], i));
-    let k = slips(p, s[0], s[1], s[2], s[3], s[4]);
-    std::array::from_fn(|i| k[i].embed(&SLIP_TO_TIRE))
+    slips(p, s[0], s[1], s[2], s[3], s[4])
 }
 
 /// Second-order jet of `w[0] sat_f + w[1] sat_r` (physical saturation values) over the tire
 /// inputs [r, V, beta, V_wr, dFz, delta, T_bf].
+///
+/// Each row is a slip norm minus a multiple of a force capacity (R5-R7): the norms depend
+/// on the 5 slip inputs alone, the capacities on (dFz, T_bf) alone, so the Hessian is two
+/// diagonal blocks, built directly over 5 and 2 inputs.
 #[inline(always)]
 pub fn saturation_hessian(p: &VehicleParams, x: &[f64; NX], u: &[f64; NU], w: [f64; 2]) -> D2<NT> {
     let ti = tire_inputs(x, u);
     let [taf, tar, kr] = slips_d2(p, &ti);
-    let fo = front(
-        p,
-        D2::<3>::var(taf.re, 0),
-        D2::var(ti[T_DFZ], 1),
-        D2::var(ti[T_TBF], 2),
-    )[1] * w[0];
-    let ro = rear(
-        p,
-        D2::<3>::var(tar.re, 0),
-        D2::var(kr.re, 1),
-        D2::var(ti[T_DFZ], 2),
-    )[2] * w[1];
-    compose_tail(&fo, &[taf], &[T_DFZ, T_TBF]) + compose_tail(&ro, &[tar, kr], &[T_DFZ])
+    let norms = front_sigma(p, taf) * w[0] + rear_sigma(p, tar, kr) * w[1];
+    let dfz = D2::<2>::var(ti[T_DFZ], 0);
+    let caps = front_fmax(p, dfz, D2::var(ti[T_TBF], 1)) * (-(3.0 / p.c_f) * w[0])
+        + rear_fmax(p, dfz) * (-(3.0 / p.c_r) * w[1]);
+    let mut out = D2::<NT>::cst(0.0);
+    out.add_at(&norms, &SLIP_TO_TIRE);
+    out.add_at(&caps, &[T_DFZ, T_TBF]);
+    out
 }
 
 /// Second-order jet of `phi = sum_{i != s} w[i] f_i(x, u)` (f = physical spatial
@@ -250,7 +271,7 @@ pub fn defect_hessian(
 ) -> D2<NF> {
     let ti = tire_inputs(x, u);
     // Forces over the tire inputs.
-    let [taf, tar, kr] = slips_d2(p, &ti);
+    let [taf, tar, kr] = slips_d2(p, &ti).map(|j| j.embed::<NT>(&SLIP_TO_TIRE));
     let tbf = D2::<NT>::var(ti[T_TBF], T_TBF);
     let fyf3 = front(
         p,

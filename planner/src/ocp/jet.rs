@@ -160,6 +160,18 @@ impl<const M: usize> D2<M> {
         }
         out
     }
+    /// Adds `o`, a jet over L of this jet's inputs (input i of `o` is input `map[i]` here,
+    /// distinct indices): the embedding and the sum in one pass.
+    #[inline(always)]
+    pub fn add_at<const L: usize>(&mut self, o: &D2<L>, map: &[usize; L]) {
+        self.re += o.re;
+        for i in 0..L {
+            self.g[map[i]] += o.g[i];
+            for j in 0..L {
+                self.h[map[i]][map[j]] += o.h[i][j];
+            }
+        }
+    }
     /// Writes the lower triangle row-major (i >= j), entry (i, j) multiplied by
     /// `scale[i] * scale[j]`, into `out` (length M (M + 1) / 2).
     #[inline]

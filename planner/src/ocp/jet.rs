@@ -174,7 +174,7 @@ impl<const M: usize> D2<M> {
     }
     /// Writes the lower triangle row-major (i >= j), entry (i, j) multiplied by
     /// `scale[i] * scale[j]`, into `out` (length M (M + 1) / 2).
-    #[inline]
+    #[inline(always)]
     pub fn write_lower(&self, scale: &[f64; M], out: &mut [f64]) {
         let mut p = 0;
         for i in 0..M {

@@ -169,7 +169,7 @@ fn sat_col(lay: &Layout, k: usize, l: usize) -> usize {
 
 /// Builds physical (x, u) at (x_k, u_k) where saturation input `l` is `seed(z, l) * nominal`
 /// and every other entry is a constant.
-#[inline]
+#[inline(always)]
 fn sat_point<D: DualNum<Primitive = f64> + Copy>(
     lay: &Layout,
     k: usize,

@@ -31,7 +31,7 @@ fn in_col(lay: &Layout, k: usize, l: usize) -> usize {
 }
 
 /// Physical (x_{k+1}, u_k) with input `l` built as `seed(z, l) * nominal`.
-#[inline]
+#[inline(always)]
 fn point<D: DualNum<Primitive = f64> + Copy>(
     lay: &Layout,
     k: usize,

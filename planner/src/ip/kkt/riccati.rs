@@ -227,6 +227,14 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     rows: Vec<Row>,
     path_rows: Vec<PathRow>,
     path_entries: Vec<PathEntry>,
+    /// The solves' gather r_x += J_r^T r_c,r / |D_c| grouped by target: per target entry of
+    /// `bz` (stage, position, end of its terms), and its terms (path entry, path row) in row
+    /// order. Each target sums in a register from its old value, in the order of the
+    /// row-by-row scatter (same bits) but without chains of stores and reloads.
+    gather_targets: Vec<(u32, u16, u32)>,
+    gather_terms: Vec<(u32, u32)>,
+    /// Per path row: its right-hand side times its weight, during a solve.
+    path_t: Vec<f64>,
     /// The assembly by units (see [`Unit`]): index k < N for stage k, index N (swept first)
     /// for W_N and X_{N-1}.
     units: Vec<Unit>,
@@ -465,6 +473,27 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             });
         }
 
+        // The solves' gather by target (path rows in row order, entries in row order).
+        let (gather_targets, gather_terms) = {
+            let mut terms: Vec<(u32, u16, u32, u32)> = Vec::with_capacity(path_entries.len());
+            for (p, pr) in path_rows.iter().enumerate() {
+                for (e, ent) in path_entries.iter().enumerate().take(pr.end).skip(pr.start) {
+                    terms.push((ent.stage, ent.local, e as u32, p as u32));
+                }
+            }
+            // Stable: each target keeps its terms in row order.
+            terms.sort_by_key(|&(stage, local, _, _)| (stage, local));
+            let mut targets: Vec<(u32, u16, u32)> = Vec::new();
+            for (i, &(stage, local, _, _)) in terms.iter().enumerate() {
+                match targets.last_mut() {
+                    Some(t) if (t.0, t.1) == (stage, local) => t.2 = i as u32 + 1,
+                    _ => targets.push((stage, local, i as u32 + 1)),
+                }
+            }
+            let terms = terms.iter().map(|&(_, _, e, p)| (e, p)).collect();
+            (targets, terms)
+        };
+
         // Hessian (lower triangle, row >= col).
         let mut hess_map = Vec::with_capacity(hess_rows.len());
         for (&r, &c) in hess_rows.iter().zip(hess_cols) {
@@ -607,6 +636,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             y_live,
             rows,
             path_w: vec![0.0; path_rows.len()],
+            path_t: vec![0.0; path_rows.len()],
+            gather_targets,
+            gather_terms,
             path_vals: vec![0.0; path_entries.len()],
             path_wv: vec![0.0; path_entries.len()],
             path_rows,
@@ -1103,17 +1135,18 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             match self.rows[r] {
                 Row::Dynamics(k, i) => self.bl[k as usize][i as usize] = v,
                 Row::Initial(i) => self.bl[big][i as usize] = v,
-                Row::Path(p) => {
-                    let pr = self.path_rows[p as usize];
-                    let t = v * self.path_w[p as usize];
-                    for (e, &jv) in self.path_entries[pr.start..pr.end]
-                        .iter()
-                        .zip(&self.path_vals[pr.start..pr.end])
-                    {
-                        self.bz[e.stage as usize][e.local as usize] += t * jv;
-                    }
-                }
+                Row::Path(p) => self.path_t[p as usize] = v * self.path_w[p as usize],
             }
+        }
+        let mut start = 0;
+        for &(stage, local, end) in &self.gather_targets {
+            let b = &mut self.bz[stage as usize][local as usize];
+            let mut acc = *b;
+            for &(e, p) in &self.gather_terms[start..end as usize] {
+                acc += self.path_t[p as usize] * self.path_vals[e as usize];
+            }
+            *b = acc;
+            start = end as usize;
         }
         // Forward substitution in elimination order.
         for k in (0..big).rev() {

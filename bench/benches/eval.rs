@@ -1,6 +1,8 @@
 //! Cost of one full derivative evaluation of the oval NLP (N = 100, implicit Euler):
 //! objective gradient, constraints, constraint Jacobian and Lagrangian Hessian, for the
-//! fast structured derivative path (default) and the num-dual oracle for comparison.
+//! fast structured derivative path (default) and the num-dual oracle for comparison; and
+//! the structured model pieces alone (`pieces_x100`), to tell their cost from the
+//! assembly's around them.
 
 use bench::oval_nlp_at_reference;
 use criterion::{criterion_group, criterion_main, Criterion};

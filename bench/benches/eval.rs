@@ -66,20 +66,21 @@ fn eval(c: &mut Criterion) {
 /// The structured model pieces alone, over the 100 intervals of the same point: where the
 /// Hessian and Jacobian time goes (AVX2 copies, as the solver runs them on this CPU).
 fn pieces(c: &mut Criterion) {
+    use planner::model::{NU, NX};
     use planner::ocp::fast;
     let (nlp, z) = oval_nlp_at_reference();
     let (xs, us) = nlp.trajectory_from(&z);
     let p = nlp.spec().vehicle;
     let kappa = nlp.spec().kappa.clone();
-    let w: [f64; planner::model::NX] = std::array::from_fn(|i| 0.3 - 0.1 * i as f64);
+    let w: [f64; NX] = std::array::from_fn(|i| 0.3 - 0.1 * i as f64);
 
     #[target_feature(enable = "avx2,fma")]
     unsafe fn defect_h(
         p: &planner::model::VehicleParams,
-        xs: &[[f64; 9]],
-        us: &[[f64; 3]],
+        xs: &[[f64; NX]],
+        us: &[[f64; NU]],
         kappa: &[f64],
-        w: &[f64; 9],
+        w: &[f64; NX],
     ) -> f64 {
         let mut acc = 0.0;
         for k in 0..us.len() {
@@ -95,7 +96,7 @@ fn pieces(c: &mut Criterion) {
         acc
     }
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn sat_h(p: &planner::model::VehicleParams, xs: &[[f64; 9]], us: &[[f64; 3]]) -> f64 {
+    unsafe fn sat_h(p: &planner::model::VehicleParams, xs: &[[f64; NX]], us: &[[f64; NU]]) -> f64 {
         let mut acc = 0.0;
         for k in 0..us.len() {
             acc += black_box(&fast::saturation_hessian(p, &xs[k], &us[k], [0.3, -0.2])).h[3][2];
@@ -105,8 +106,8 @@ fn pieces(c: &mut Criterion) {
     #[target_feature(enable = "avx2,fma")]
     unsafe fn defect_j(
         p: &planner::model::VehicleParams,
-        xs: &[[f64; 9]],
-        us: &[[f64; 3]],
+        xs: &[[f64; NX]],
+        us: &[[f64; NU]],
         kappa: &[f64],
     ) -> f64 {
         let mut acc = 0.0;

@@ -325,9 +325,7 @@ impl<S: DefectScheme> HessParts<'_, S> {
             &lambda[st.row_defect..st.row_defect + S::ROWS],
             &mut scratch[..slots.len()],
         );
-        for (pos, (&s, &v)) in slots.iter().zip(scratch.iter()).enumerate() {
-            emit(pos, s, v);
-        }
+        emit_block(slots, scratch, 0, emit);
     }
 
     /// Stage k's saturation Hessian terms (positions after its defect terms).
@@ -350,9 +348,7 @@ impl<S: DefectScheme> HessParts<'_, S> {
         } else {
             self.sat_rows.hess_fast(k, x, lam, out);
         }
-        for (pos, (&s, &v)) in slots.iter().zip(scratch.iter()).enumerate() {
-            emit(base + pos, s, v);
-        }
+        emit_block(slots, scratch, base, emit);
     }
 
     /// The (position, slot) pairs of stage k, positions as [`Self::stages`] emits them.
@@ -367,6 +363,19 @@ impl<S: DefectScheme> HessParts<'_, S> {
                 f(slots.len() + pos, s);
             }
         }
+    }
+}
+
+/// Emits a block's values (`vals`, in `slots` order) at positions from `base`.
+#[inline(always)]
+fn emit_block(
+    slots: &[usize],
+    vals: &[f64],
+    base: usize,
+    emit: &mut impl FnMut(usize, usize, f64),
+) {
+    for (pos, (&s, &v)) in slots.iter().zip(vals).enumerate() {
+        emit(base + pos, s, v);
     }
 }
 

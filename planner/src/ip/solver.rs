@@ -1663,10 +1663,12 @@ impl<K: KktSolver> Solver<K> {
         let ws = &mut self.ws;
         ws.grad_lag_fresh = false;
         let m = ws.m;
-        ws.w.copy_from_slice(&ws.w_t);
+        // Swapped, not copied: every trial rewrites w_t, g_t and c_t whole before reading
+        // them (`set_trial`, `eval_trial`).
+        std::mem::swap(&mut ws.w, &mut ws.w_t);
         ws.f = f_t;
-        ws.g.copy_from_slice(&ws.g_t);
-        ws.c.copy_from_slice(&ws.c_t);
+        std::mem::swap(&mut ws.g, &mut ws.g_t);
+        std::mem::swap(&mut ws.c, &mut ws.c_t);
         if update_y {
             for i in 0..m {
                 ws.y[i] += alpha * ws.dy[i];

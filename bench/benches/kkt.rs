@@ -120,6 +120,21 @@ fn kkt(c: &mut Criterion) {
             split.solve(black_box(&mut bx), black_box(&mut by));
         })
     });
+    // The same with the helper thread of `threads = 2` writing the stage blocks.
+    split
+        .inner_mut()
+        .set_pipelined(true)
+        .expect("helper thread starts");
+    g.bench_function("riccati_split/factorize_pipelined", |b| {
+        b.iter(|| split.factorize(black_box(&values0)).expect("factorizes"))
+    });
+    g.bench_function("riccati_split/factorize_pipelined_new_jacobian", |b| {
+        b.iter(|| {
+            flip = !flip;
+            let v = if flip { &values1 } else { &values0 };
+            split.factorize(black_box(v)).expect("factorizes")
+        })
+    });
     g.finish();
 }
 

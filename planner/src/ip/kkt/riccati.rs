@@ -1127,6 +1127,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             return;
         }
         let big = self.stages;
+        // Every path row's right-hand side is read into `path_t` below.
+        debug_assert_eq!((rhs_x.len(), rhs_y.len()), (self.n, self.m), "rhs lengths");
         // Gather, the path rows eliminated: r_x += J_r^T r_c,r / |D_c|.
         for (b, chunk) in self.bz.iter_mut().zip(rhs_x.chunks(NZ)) {
             b.as_mut_slice()[..chunk.len()].copy_from_slice(chunk);

@@ -157,3 +157,54 @@ pub fn compute_errors(ws: &mut Workspace, mu: f64) -> Errors {
         mu_avg: if ws.n_compl > 0 { compl_sum / nc } else { 0.0 },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic pseudo-random numbers for the patterns.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> u64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            self.0 >> 33
+        }
+    }
+
+    /// The per-column gather gives the bits of the scatter over random patterns (duplicate
+    /// entries, empty columns and entries outside the n columns included).
+    #[test]
+    fn column_gather_has_the_scatter_bits() {
+        let mut rng = Lcg(7);
+        for case in 0..200 {
+            let (n, m) = (1 + case % 17, 1 + case % 13);
+            let nnz = (rng.next() % 60) as usize;
+            let rows: Vec<usize> = (0..nnz).map(|_| (rng.next() % m as u64) as usize).collect();
+            let cols: Vec<usize> = (0..nnz)
+                .map(|_| (rng.next() % (n as u64 + 2)) as usize)
+                .collect();
+            let val = |rng: &mut Lcg| (rng.next() % 2001) as f64 / 7.0 - 140.0;
+            let jac: Vec<f64> = (0..nnz).map(|_| val(&mut rng)).collect();
+            let v: Vec<f64> = (0..m).map(|_| val(&mut rng)).collect();
+            let start: Vec<f64> = (0..n).map(|_| val(&mut rng)).collect();
+            // The scatter, restricted to the n columns as the gather is.
+            let (mut sr, mut sc, mut sj) = (Vec::new(), Vec::new(), Vec::new());
+            for q in 0..nnz {
+                if cols[q] < n {
+                    sr.push(rows[q]);
+                    sc.push(cols[q]);
+                    sj.push(jac[q]);
+                }
+            }
+            let mut want = start.clone();
+            jac_t_mul(&sr, &sc, &sj, &v, &mut want);
+            let mut got = start.clone();
+            ColumnJacobian::new(&rows, &cols, n).t_mul(&jac, &v, &mut got);
+            let bits = |x: &[f64]| x.iter().map(|a| a.to_bits()).collect::<Vec<u64>>();
+            assert_eq!(bits(&got), bits(&want), "case {case}");
+        }
+    }
+}

@@ -115,12 +115,12 @@ struct UnitPair {
 /// inertia-correcting refactorizations of an iteration change only diagonals).
 #[derive(Debug, Clone)]
 struct StageInverse<const NX: usize> {
-    f: SMatrix<f64, NX, NX>,
-    /// F^T (the sweep's products read F's rows as contiguous columns).
+    /// F^T = E_k^-T, the only copy kept: its columns are F's rows, which the sweep's
+    /// products read as contiguous vectors (F's entries they only broadcast).
     ft: SMatrix<f64, NX, NX>,
-    /// The E that `f` inverts (NaN until the first success).
+    /// The E that `ft` inverts (NaN until the first success).
     e_in: SMatrix<f64, NX, NX>,
-    /// Whether E_k of the current assembly is invertible (`f` is its inverse).
+    /// Whether E_k of the current assembly is invertible (`ft` is its inverse's transpose).
     ok: bool,
     /// J_k = [-I, G] in the current assembly (see [`minus_identity_head`]).
     j_minus_identity: bool,
@@ -129,7 +129,6 @@ struct StageInverse<const NX: usize> {
 impl<const NX: usize> Default for StageInverse<NX> {
     fn default() -> Self {
         Self {
-            f: SMatrix::zeros(),
             ft: SMatrix::zeros(),
             e_in: SMatrix::repeat(f64::NAN),
             ok: false,
@@ -734,7 +733,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         q: &mut SMatrix<f64, NZ, NZ>,
         inertia: &mut Inertia,
     ) -> Result<(), KktError> {
-        let f = &inv.f;
+        let f = &inv.ft.transpose();
         let mut phat = mul_tn(f, &mul_nn(p, f));
         symmetrize(&mut phat);
         // C^ = Y F (Y is zero outside the few rows of z_k that couple to x_{k+1}).
@@ -861,11 +860,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         Ok(())
     }
 
-    /// Applies the pair's M^-1 to (r1, r2): returns (x_{k+1}, lambda_k).
+    /// Applies the pair's M^-1 to (r1, r2): returns (x_{k+1}, lambda_k). `ft` is F^T.
     #[inline(always)]
     fn apply_pair(
         fac: &StageFactor<NX, NU, NZ>,
-        f: &SMatrix<f64, NX, NX>,
+        ft: &SMatrix<f64, NX, NX>,
         r1: &SVector<f64, NX>,
         r2: &SVector<f64, NX>,
     ) -> (SVector<f64, NX>, SVector<f64, NX>) {
@@ -877,13 +876,14 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             return (x, lambda);
         }
         // [[P^, I], [I, -Delta]]^-1 applied to (F^T r1, r2) gives (a, lambda), x = F a.
-        let q1 = mtv(f, r1);
+        let all = [true; NX];
+        let q1 = mtv_t(ft, r1);
         if fac.zero_delta {
-            (mv(f, r2), q1 + mv(&fac.a22, r2))
+            (mv_rows_t(ft, r2, &all), q1 + mv(&fac.a22, r2))
         } else {
             let a = mv(&fac.a11, &q1) + mv(&fac.a12, r2);
             let b = mtv(&fac.a12, &q1) + mv(&fac.a22, r2);
-            (mv(f, &a), b)
+            (mv_rows_t(ft, &a, &all), b)
         }
     }
 
@@ -1155,7 +1155,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             let (fac, inv) = (&self.factors[k], &self.inverses[k]);
             let j = Self::j_in(&self.arena, self.j_base, k);
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0).into_owned();
-            let (x, lambda) = Self::apply_pair(fac, &inv.f, &r1, &self.bl[k]);
+            let (x, lambda) = Self::apply_pair(fac, &inv.ft, &r1, &self.bl[k]);
             let upd =
                 mv_rows_t(&fac.yt, &x, &self.y_live) + jt_mul(j, inv.j_minus_identity, &lambda);
             self.bz[k] -= upd;
@@ -1203,7 +1203,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             let z = self.bz[k];
             let r1: SVector<f64, NX> = self.bz[k + 1].fixed_rows::<NX>(0) - mtv_t(&fac.yt, &z);
             let r2 = self.bl[k] - j_mul(j, inv.j_minus_identity, &z);
-            let (xn, lambda) = Self::apply_pair(fac, &inv.f, &r1, &r2);
+            let (xn, lambda) = Self::apply_pair(fac, &inv.ft, &r1, &r2);
             self.bz[k + 1].fixed_rows_mut::<NX>(0).copy_from(&xn);
             self.bl[k] = lambda;
         }
@@ -1396,9 +1396,8 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
                 inv.ok = true;
             } else {
                 let e = SMatrix::<f64, NX, NX>::from_column_slice(e);
-                if let Some(f) = invert_unit_tail(&e) {
-                    inv.f = f;
-                    inv.ft = f.transpose();
+                if let Some(ft) = invert_unit_tail_t(&e) {
+                    inv.ft = ft;
                     inv.e_in = e;
                     inv.ok = true;
                 } else {
@@ -1680,11 +1679,10 @@ fn fast_stage<const NX: usize, const NU: usize, const NZ: usize>(
     y_live: &[bool; NZ],
     inertia: &mut Inertia,
 ) -> Result<(), KktError> {
-    let fc = &inv.f.data.0;
     let ft = &inv.ft.data.0;
     // P^ = F^T (P F): its pair has inertia (NX, NX).
     let mut pf = [[0.0; NX]; NX];
-    mm_acc(&mut pf, &p.data.0, fc, 1.0);
+    mm_acc_bt(&mut pf, &p.data.0, ft);
     let mut phat = [[0.0; NX]; NX];
     mm_acc(&mut phat, ft, &pf, 1.0);
     sym_lower(&mut phat);
@@ -1996,6 +1994,26 @@ fn mm_acc<const R: usize, const K: usize, const C: usize>(
     }
 }
 
+/// out += a b given b^T (`bt`): [`mm_acc`] with sign 1 and its bits, b's entries read
+/// (broadcast) from b^T's columns.
+#[inline(always)]
+fn mm_acc_bt<const R: usize, const K: usize, const C: usize>(
+    out: &mut [[f64; R]; C],
+    a: &[[f64; R]; K],
+    bt: &[[f64; C]; K],
+) {
+    for (c, oc) in out.iter_mut().enumerate() {
+        let mut acc = *oc;
+        for (ak, btk) in a.iter().zip(bt) {
+            let s = 1.0 * btk[c];
+            for (o, &x) in acc.iter_mut().zip(ak) {
+                *o += x * s;
+            }
+        }
+        *oc = acc;
+    }
+}
+
 /// Whether two slices of equal length hold the same bits (NaN never matches a number).
 #[inline(always)]
 fn same_bits(a: &[f64], b: &[f64]) -> bool {
@@ -2087,16 +2105,18 @@ fn invert<const D: usize>(a: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> 
 /// them for s and t (no state depends on either), so only the leading k x k block is
 /// inverted: embedded as diag(A, I) in a fixed 8 x 8 [`gauss_jordan`] (the identity rows
 /// never pivot into A's, so A^-1 comes out with the same bits as from a k x k elimination).
-/// Without unit columns, or with a leading block larger than 8, it is [`invert`].
+/// Without unit columns, or with a leading block larger than 8, it is [`invert`]. Returns
+/// the transpose F^T (see [`StageInverse::ft`]), written straight from the elimination's
+/// rows.
 #[inline(always)]
-fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+fn invert_unit_tail_t<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
     const W: usize = 8;
     let mut k = D;
     while k > 1 && (0..D).all(|r| e[(r, k - 1)] == if r == k - 1 { 1.0 } else { 0.0 }) {
         k -= 1;
     }
     if k == D || k > W {
-        return invert(e);
+        return invert(e).map(|f| f.transpose());
     }
     let scale = amax(e.as_slice());
     if !scale.is_finite() {
@@ -2106,34 +2126,38 @@ fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     // identity row of the 8 x 8 embedding only ever subtracted +0 from them (same bits).
     let tiny = 1e-13 * scale;
     Some(if k == 7 {
-        unit_tail_inverse(e, &leading_inverse::<D, 7, W>(e, k, tiny)?)
+        unit_tail_inverse_t(e, &leading_inverse::<D, 7, W>(e, k, tiny)?)
     } else {
-        unit_tail_inverse(e, &leading_inverse::<D, W, W>(e, k, tiny)?[..k])
+        unit_tail_inverse_t(e, &leading_inverse::<D, W, W>(e, k, tiny)?[..k])
     })
 }
 
-/// [[A^-1, 0], [-B A^-1, I]] from the k rows of A^-1 (`ai`, padded rows) and E's B.
+/// The transpose of [[A^-1, 0], [-B A^-1, I]] from the k rows of A^-1 (`ai`, padded rows)
+/// and E's B: column r is row r of the inverse, each row of -B A^-1 a serial sum over j
+/// (whole padded rows at a time; the padding columns are dropped).
 #[inline(always)]
-fn unit_tail_inverse<const D: usize, const W: usize>(
+fn unit_tail_inverse_t<const D: usize, const W: usize>(
     e: &SMatrix<f64, D, D>,
     ai: &[[f64; W]],
 ) -> SMatrix<f64, D, D> {
     let k = ai.len();
     let mut out = SMatrix::<f64, D, D>::zeros();
-    for (r, row) in ai.iter().enumerate() {
-        for c in 0..k {
-            out[(r, c)] = row[c];
-        }
+    let cols = &mut out.data.0;
+    for (col, row) in cols.iter_mut().zip(ai) {
+        col[..k].copy_from_slice(&row[..k]);
     }
-    for r in k..D {
-        for c in 0..k {
-            let mut acc = 0.0;
-            for (j, row) in ai.iter().enumerate() {
-                acc += e[(r, j)] * row[c];
+    for (r, col) in cols.iter_mut().enumerate().skip(k) {
+        let mut acc = [0.0; W];
+        for (j, row) in ai.iter().enumerate() {
+            let s = e[(r, j)];
+            for (a, &x) in acc.iter_mut().zip(row) {
+                *a += s * x;
             }
-            out[(r, c)] = -acc;
         }
-        out[(r, r)] = 1.0;
+        for (o, &a) in col[..k].iter_mut().zip(&acc) {
+            *o = -a;
+        }
+        col[r] = 1.0;
     }
     out
 }
@@ -2467,6 +2491,11 @@ mod tests {
                 assert!(same_bits(a, b), "{a:?} vs {b:?}");
             }
         }
+    }
+
+    /// F from [`invert_unit_tail_t`].
+    fn invert_unit_tail<const D: usize>(e: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+        invert_unit_tail_t(e).map(|ft| ft.transpose())
     }
 
     #[test]

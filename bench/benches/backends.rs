@@ -36,12 +36,16 @@ fn backends(c: &mut Criterion) {
             (None, _) => file.trim_end_matches(".toml").to_string(),
         };
         for kkt in [KktBackendKind::Sparse, KktBackendKind::Riccati] {
-            let mut p = bench::planner_for_with(file, entry, |spec, settings| {
-                if let Some(on) = saturation {
-                    spec.enforce_tire_saturation = on;
-                }
-                settings.kkt = kkt;
-            });
+            let mut p = bench::planner_for_with(
+                file,
+                entry,
+                |spec| {
+                    if let Some(on) = saturation {
+                        spec.enforce_tire_saturation = on;
+                    }
+                },
+                |settings| settings.kkt = kkt,
+            );
             let name = format!("{case}/{}", kkt.name());
             report(&name, &mut p);
             g.bench_function(&name, |b| {

@@ -3,7 +3,8 @@
 //! num-dual oracle and `threads = 2` (helper thread for the factorization and the Hessian);
 //! and each race segment S01-S10 (paper Table II, issue #7: each under 20 ms median), one
 //! criterion group per segment, with one and two threads. The scenarios' objective is
-//! t_N + 1 x steering slew; the `_pure_min_time` entries solve the paper's eq. 3 (weight 0).
+//! t_N + 1 x steering slew; the `_pure_min_time` entries solve the paper's eq. 3 (weight 0),
+//! with the solver file shipped for it (`config/solver_min_time.toml`).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use planner::guess::GuessKind;
@@ -27,12 +28,16 @@ fn oval(c: &mut Criterion) {
         ("oval_equilibrium_threads2", 2, None),
         ("oval_equilibrium_pure_min_time", 1, Some(0.0)),
     ] {
-        let mut p = bench::planner_for_with("oval.toml", None, |spec, s| {
-            s.threads = threads;
-            if let Some(w) = slew {
-                spec.steering_slew_weight = w;
-            }
-        });
+        let mut p = bench::planner_for_with(
+            "oval.toml",
+            None,
+            |spec| {
+                if let Some(w) = slew {
+                    spec.steering_slew_weight = w;
+                }
+            },
+            |s| s.threads = threads,
+        );
         report(name, &mut p);
         g.bench_function(name, |b| {
             b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))
@@ -69,12 +74,16 @@ fn segments(c: &mut Criterion) {
             ("equilibrium_threads2", 2, None),
             ("equilibrium_pure_min_time", 1, Some(0.0)),
         ] {
-            let mut p = bench::planner_for_with("segments.toml", Some(&name), |spec, s| {
-                s.threads = threads;
-                if let Some(w) = slew {
-                    spec.steering_slew_weight = w;
-                }
-            });
+            let mut p = bench::planner_for_with(
+                "segments.toml",
+                Some(&name),
+                |spec| {
+                    if let Some(w) = slew {
+                        spec.steering_slew_weight = w;
+                    }
+                },
+                |s| s.threads = threads,
+            );
             report(&format!("{name} ({id})"), &mut p);
             g.bench_function(id, |b| {
                 b.iter(|| std::hint::black_box(p.solve(GuessKind::Equilibrium)))

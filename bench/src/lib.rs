@@ -22,15 +22,17 @@ pub fn oval_nlp_at_reference() -> (ImplicitEulerNlp<100>, Vec<f64>) {
 /// A planner for a shipped scenario (`config/` of this repository), with the shipped solver
 /// settings. `select` picks a segment or collision-avoidance scenario.
 pub fn planner_for(scenario: &str, select: Option<&str>) -> planner::plan::Planner<100> {
-    planner_for_with(scenario, select, |_, _| {})
+    planner_for_with(scenario, select, |_| {}, |_| {})
 }
 
-/// As [`planner_for`], with the scenario spec and solver settings adjusted by `edit` before
-/// the planner is built.
+/// As [`planner_for`], with the scenario spec adjusted by `edit_spec`, then the shipped solver
+/// file for the spec's objective loaded ([`planner::config::shipped_solver_file`]) and
+/// adjusted by `edit_settings`.
 pub fn planner_for_with(
     scenario: &str,
     select: Option<&str>,
-    edit: impl FnOnce(&mut planner::ocp::OcpSpec, &mut planner::ip::Settings),
+    edit_spec: impl FnOnce(&mut planner::ocp::OcpSpec),
+    edit_settings: impl FnOnce(&mut planner::ip::Settings),
 ) -> planner::plan::Planner<100> {
     let root = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
     let vehicle = planner::config::load_vehicle(&root.join("vehicles/lc500.toml"))
@@ -38,9 +40,11 @@ pub fn planner_for_with(
     let mut spec =
         planner::config::load_scenario(&root.join("scenarios").join(scenario), select, vehicle)
             .expect("shipped scenario loads");
+    edit_spec(&mut spec);
+    let solver_file = planner::config::shipped_solver_file(spec.steering_slew_weight);
     let mut settings =
-        planner::config::load_solver(&root.join("solver.toml")).expect("shipped solver file loads");
-    edit(&mut spec, &mut settings);
+        planner::config::load_solver(&root.join(solver_file)).expect("shipped solver file loads");
+    edit_settings(&mut settings);
     planner::plan::Planner::<100>::new(spec, settings).expect("planner builds")
 }
 

@@ -44,6 +44,13 @@ fn solve_json_has_the_contract_fields() {
     // The shipped oval weights the steering slew; t_N stays within 5e-4 of the reference's
     // pure optimum (measured +2.8e-4).
     assert_eq!(v["steering_slew_weight"], 1.0);
+    assert!(
+        v["solver_file"]
+            .as_str()
+            .is_some_and(|f| f.ends_with("config/solver.toml")),
+        "{}",
+        v["solver_file"]
+    );
     let t = v["t_final"].as_f64().unwrap();
     assert!((t - 13.0699).abs() / 13.0699 < 5e-4, "t_final {t}");
     // CSV with one row per node and a PNG.
@@ -51,6 +58,43 @@ fn solve_json_has_the_contract_fields() {
     assert_eq!(csv.lines().count(), 102);
     assert!(std::fs::metadata(out_dir.join("oval.png")).unwrap().len() > 1000);
     let _ = std::fs::remove_dir_all(&out_dir);
+}
+
+/// Without --solver, the pure minimum time loads the file shipped for it, whose settings
+/// differ (barrier_tol_factor 10 against 30): the iterations match an explicit
+/// `--solver config/solver_min_time.toml` and not `--solver config/solver.toml`.
+#[test]
+fn solve_picks_the_solver_file_for_its_objective() {
+    let run = |extra: &[&str]| {
+        let out = trajopt()
+            .args([
+                "solve",
+                "--json",
+                "--no-output",
+                "--steering-slew-weight",
+                "0",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(String::from_utf8(out.stdout).unwrap().trim()).unwrap();
+        (
+            v["solver_file"].as_str().unwrap().to_string(),
+            v["iterations"].as_u64().unwrap(),
+        )
+    };
+    let (file, its) = run(&[]);
+    assert!(file.ends_with("config/solver_min_time.toml"), "{file}");
+    let (_, its_min_time) = run(&["--solver", "config/solver_min_time.toml"]);
+    let (_, its_planner) = run(&["--solver", "config/solver.toml"]);
+    assert_eq!(its, its_min_time);
+    assert_ne!(its, its_planner, "the two files should differ on the oval");
 }
 
 #[test]

@@ -2,12 +2,13 @@
 //! transcription from the equilibrium guess; prints status, iterations and t_N.
 //!
 //! Derivatives come from the num-dual oracle (slower than implicit Euler's fast path), so
-//! the wall-clock cap of `solver.toml` is raised to 120 s; the iteration cap is unchanged.
+//! the wall-clock cap of the solver file (`solver_min_time.toml`: the study's pure minimum
+//! time) is raised to 120 s; the iteration cap is unchanged.
 
 use std::path::Path;
 use std::time::Instant;
 
-use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::config::{load_scenario, load_solver, load_vehicle, shipped_solver_file};
 use planner::guess::{equilibrium, fill_equilibrium};
 use planner::ip::{SolveInfo, Solver, Status};
 use planner::model::{ix, NU, NX};
@@ -39,7 +40,8 @@ fn solve_oval<S: DefectScheme>(scheme: S) -> Outcome {
     let mut spec = load_scenario(&root.join("scenarios/oval.toml"), None, vehicle).unwrap();
     // The paper's integrator study solves its pure minimum time (eq. 3), as the references do.
     spec.steering_slew_weight = 0.0;
-    let mut settings = load_solver(&root.join("solver.toml")).unwrap();
+    let mut settings =
+        load_solver(&root.join(shipped_solver_file(spec.steering_slew_weight))).unwrap();
     settings.max_time_s = 120.0;
     let max_iter = settings.max_iter;
     let eq = equilibrium(&spec.vehicle, spec.v_min, spec.v_max, DEFAULT_GUESS_SPEED).unwrap();

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::config::{load_scenario, load_solver, load_vehicle, shipped_solver_file};
 use planner::guess::GuessKind;
 use planner::ip::Status;
 use planner::model::{ix, tire_forces};
@@ -24,7 +24,8 @@ fn oval_planner_w(w: f64) -> Planner<100> {
     let vehicle = load_vehicle(&root().join("vehicles/lc500.toml")).unwrap();
     let mut spec = load_scenario(&root().join("scenarios/oval.toml"), None, vehicle).unwrap();
     spec.steering_slew_weight = w;
-    let settings = load_solver(&root().join("solver.toml")).unwrap();
+    let settings =
+        load_solver(&root().join(shipped_solver_file(spec.steering_slew_weight))).unwrap();
     Planner::<100>::new(spec, settings).unwrap()
 }
 
@@ -177,7 +178,8 @@ fn mehrotra_rules_converge_on_the_oval() {
         let vehicle = load_vehicle(&root().join("vehicles/lc500.toml")).unwrap();
         let mut spec = load_scenario(&root().join("scenarios/oval.toml"), None, vehicle).unwrap();
         spec.steering_slew_weight = 0.0;
-        let mut settings = load_solver(&root().join("solver.toml")).unwrap();
+        let mut settings =
+            load_solver(&root().join(shipped_solver_file(spec.steering_slew_weight))).unwrap();
         settings.barrier = rule;
         let mut p = Planner::<100>::new(spec, settings).unwrap();
         let info = p.solve(GuessKind::Equilibrium);

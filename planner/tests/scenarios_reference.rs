@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::config::{load_scenario, load_solver, load_vehicle, shipped_solver_file};
 use planner::guess::GuessKind;
 use planner::ip::{SolveInfo, Status};
 use planner::model::ix;
@@ -26,7 +26,8 @@ fn solve(file: &str, select: &str, saturation: Option<bool>) -> (SolveInfo, Plan
 }
 
 fn solve_spec(spec: planner::ocp::OcpSpec) -> (SolveInfo, Planner<100>) {
-    let settings = load_solver(&root().join("solver.toml")).unwrap();
+    let settings =
+        load_solver(&root().join(shipped_solver_file(spec.steering_slew_weight))).unwrap();
     let mut p = Planner::<100>::new(spec, settings).unwrap();
     let info = p.solve(GuessKind::Equilibrium);
     (info, p)

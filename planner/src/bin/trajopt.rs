@@ -64,9 +64,10 @@ struct StudyFiles {
     /// Vehicle file.
     #[arg(long, default_value = "config/vehicles/lc500.toml")]
     vehicle: PathBuf,
-    /// Solver settings file.
-    #[arg(long, default_value = "config/solver.toml")]
-    solver: PathBuf,
+    /// Solver settings file (default: the shipped one for the objective solved,
+    /// config/solver_min_time.toml for the pure minimum time, else config/solver.toml).
+    #[arg(long)]
+    solver: Option<PathBuf>,
     /// Print exactly one JSON object on stdout (the table goes to stderr).
     #[arg(long)]
     json: bool,
@@ -91,9 +92,10 @@ struct StudyCommon {
     /// Vehicle file.
     #[arg(long, default_value = "config/vehicles/lc500.toml")]
     vehicle: PathBuf,
-    /// Solver settings file.
-    #[arg(long, default_value = "config/solver.toml")]
-    solver: PathBuf,
+    /// Solver settings file (default: the shipped one for the objective solved,
+    /// config/solver_min_time.toml for the pure minimum time, else config/solver.toml).
+    #[arg(long)]
+    solver: Option<PathBuf>,
     /// Solves per run; the median time is reported.
     #[arg(long, default_value_t = 10)]
     repeat: usize,
@@ -246,9 +248,10 @@ struct SolveArgs {
     /// Vehicle file.
     #[arg(long, default_value = "config/vehicles/lc500.toml")]
     vehicle: PathBuf,
-    /// Solver settings file.
-    #[arg(long, default_value = "config/solver.toml")]
-    solver: PathBuf,
+    /// Solver settings file (default: the shipped one for the objective solved,
+    /// config/solver_min_time.toml for the pure minimum time, else config/solver.toml).
+    #[arg(long)]
+    solver: Option<PathBuf>,
     /// Initial guess.
     #[arg(long, value_enum, default_value = "equilibrium")]
     guess: GuessArg,
@@ -357,6 +360,17 @@ impl StudyObjective {
     }
 }
 
+/// The solver file given, or the shipped one tuned for the objective's steering-slew weight
+/// ([`planner::config::shipped_solver_file`]), resolved.
+fn solver_file(given: &Option<PathBuf>, steering_slew_weight: f64) -> PathBuf {
+    match given {
+        Some(p) => resolve(p),
+        None => resolve(
+            &Path::new("config").join(planner::config::shipped_solver_file(steering_slew_weight)),
+        ),
+    }
+}
+
 /// `--steering-slew-weight`: a number in [0, MAX_STEERING_SLEW_WEIGHT].
 fn slew_weight_arg(v: &str) -> Result<f64, String> {
     let max = planner::ocp::MAX_STEERING_SLEW_WEIGHT;
@@ -379,7 +393,8 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     if let Some(w) = args.steering_slew_weight {
         spec.steering_slew_weight = w;
     }
-    let mut settings = load_solver(&resolve(&args.solver)).map_err(|e| e.to_string())?;
+    let solver_path = solver_file(&args.solver, spec.steering_slew_weight);
+    let mut settings = load_solver(&solver_path).map_err(|e| e.to_string())?;
     if let Some(k) = args.kkt {
         settings.kkt = match k {
             KktArg::Sparse => KktBackendKind::Sparse,
@@ -552,6 +567,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             "guess": guess.name(),
             "integrator": "implicit_euler",
             "barrier": settings.barrier.name(),
+            "solver_file": solver_path.display().to_string(),
             "kkt": planner.solver().kkt().name(),
             "threads": settings.threads,
             "tire_saturation": saturation,
@@ -606,7 +622,8 @@ fn study_inputs(f: &StudyFiles) -> Result<(planner::ocp::OcpSpec, planner::ip::S
             spec.n_intervals
         ));
     }
-    let settings = load_solver(&resolve(&f.solver)).map_err(|e| e.to_string())?;
+    let settings = load_solver(&solver_file(&f.solver, spec.steering_slew_weight))
+        .map_err(|e| e.to_string())?;
     std::fs::create_dir_all(&f.out_dir)
         .map_err(|e| format!("{}: cannot create: {e}", f.out_dir.display()))?;
     Ok((spec, settings))
@@ -991,7 +1008,8 @@ fn study_segments(args: StudySegmentsArgs) -> Result<(), String> {
     use planner::study::{segment_figures, segments};
     let c = &args.common;
     let vehicle = load_vehicle(&resolve(&c.vehicle)).map_err(|e| e.to_string())?;
-    let mut settings = load_solver(&resolve(&c.solver)).map_err(|e| e.to_string())?;
+    let mut settings =
+        load_solver(&solver_file(&c.solver, c.objective.slew())).map_err(|e| e.to_string())?;
     if let Some(b) = args.barrier {
         settings.barrier = b.rule();
     }
@@ -1034,7 +1052,8 @@ fn study_barrier(args: StudyBarrierArgs) -> Result<(), String> {
     use planner::study::barrier;
     let c = &args.common;
     let vehicle = load_vehicle(&resolve(&c.vehicle)).map_err(|e| e.to_string())?;
-    let settings = load_solver(&resolve(&c.solver)).map_err(|e| e.to_string())?;
+    let settings =
+        load_solver(&solver_file(&c.solver, c.objective.slew())).map_err(|e| e.to_string())?;
     let runs = barrier::run(
         &resolve(&args.scenario),
         args.segment.as_deref(),

@@ -6,6 +6,26 @@ use std::path::Path;
 use super::ConfigError;
 use crate::ip::Settings;
 
+/// The shipped solver file (in the data root, `config/`) for the planner's objective (minimum
+/// time plus a steering-slew term).
+pub const SOLVER_FILE: &str = "solver.toml";
+/// The shipped solver file for the paper's pure minimum time (eq. 3, steering-slew weight 0).
+/// It differs from [`SOLVER_FILE`] only in `barrier_tol_factor` (IPOPT's 10 there, 30 in the
+/// planner's file): each value was measured best on its own objective (README, Solver
+/// settings per objective).
+pub const SOLVER_FILE_MIN_TIME: &str = "solver_min_time.toml";
+
+/// The shipped solver file (in `config/`) tuned for an objective with this steering-slew
+/// weight:
+/// [`SOLVER_FILE_MIN_TIME`] for 0 (the paper's pure minimum time), else [`SOLVER_FILE`].
+pub fn shipped_solver_file(steering_slew_weight: f64) -> &'static str {
+    if steering_slew_weight == 0.0 {
+        SOLVER_FILE_MIN_TIME
+    } else {
+        SOLVER_FILE
+    }
+}
+
 /// Reads solver settings; missing keys keep their defaults.
 pub fn load_solver(path: &Path) -> Result<Settings, ConfigError> {
     let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {

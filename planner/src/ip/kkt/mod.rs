@@ -15,6 +15,7 @@
 
 pub mod backend;
 pub mod chain;
+mod claims;
 pub mod riccati;
 pub mod sparse_ldlt;
 pub mod structure;

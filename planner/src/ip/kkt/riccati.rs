@@ -27,15 +27,16 @@
 //! Works for every single-step scheme whose dynamics Jacobian E_k is invertible; anything
 //! else is [`KktError::Unsupported`] (the `auto` backend then uses the sparse one).
 
+use super::claims::{Acquired, Claims, CHUNK};
 use super::structure::{RowRole, StageStructure};
 use super::{Inertia, KktError, KktSolver, KktValues};
-use crate::worker::{self, wait_until, SharedWorker};
+use crate::worker::{self, SharedWorker};
 use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::lblt;
 use faer::{Conj, Mat, Par};
 use nalgebra::{SMatrix, SVector};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// No target in the block arena.
 const NONE: u32 = u32::MAX;
@@ -43,12 +44,6 @@ const NONE: u32 = u32::MAX;
 /// Row and column of a Jacobian entry this backend ignores: the values array keeps its
 /// slot (so a caller that split part of the system off passes its values unchanged).
 pub const SKIP_ENTRY: usize = usize::MAX;
-
-/// The pipelined factorization's helper publishes its progress every this many units (and
-/// after the last): a store per unit kept the counter's cache line bouncing between the
-/// two cores while the sweep polled it (one factorization of the oval, criterion: 265 us
-/// pipelined against 191 us on one thread; publishing every 8: 137 against 171 us).
-const PUBLISH_EVERY: usize = 8;
 
 /// What a constraint row is to this backend.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -245,6 +240,8 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     inverses: Vec<StageInverse<NX>>,
     /// The helper thread of the pipelined factorization (`threads = 2`), if any.
     worker: Option<SharedWorker>,
+    /// Who writes which units when the factorization is pipelined.
+    claims: Claims,
     /// All assembled blocks, column-major: W_k (k = 0..=N; W_N uses the NX x NX corner),
     /// X_k (rows z_{k+1}, columns z_k), E_k (index N: initial rows), J_k.
     arena: Vec<f64>,
@@ -650,6 +647,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             u_pairs,
             inverses: vec![StageInverse::default(); big],
             worker: None,
+            claims: Claims::new(big + 1),
             arena: vec![0.0; arena_len],
             x_base,
             e_base,
@@ -898,6 +896,8 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         stop_on_excess: bool,
     ) -> Result<Inertia, KktError> {
         let big = self.stages;
+        self.claims.reset();
+        let claims = &self.claims;
         let asm = Assembly::<NX, NZ> {
             units: &self.units,
             zero: &self.u_zero,
@@ -930,41 +930,51 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                 unsafe { asm.unit_for_cpu(k, v) }
             })?,
             Some(shared) => {
-                // Units done, in sweep order (N, N-1, .., 0); the sweep stops the helper
-                // when it stops early.
-                let done = AtomicUsize::new(0);
+                // Units in sweep order (N, N-1, .., 0), in chunks claimed by the helper or
+                // taken by the sweep (see `Claims`); the sweep stops the helper when it stops
+                // early.
                 let cancel = AtomicBool::new(false);
                 // Set if the helper's job panics, so the sweep stops waiting (and panics).
                 let failed = AtomicBool::new(false);
+                let chunk = |c: usize| {
+                    // SAFETY: the thread that claimed or took chunk c is the only one
+                    // writing its units, and the other reads them only after it is
+                    // published (release/acquire on its flag) or, for the sweep's own
+                    // chunks, after writing them itself.
+                    for i in c * CHUNK..((c + 1) * CHUNK).min(big + 1) {
+                        unsafe { asm.unit_for_cpu(big - i, v) };
+                    }
+                };
                 let mut job = || {
                     let _flag = PanicFlag(&failed);
-                    for (i, k) in (0..=big).rev().enumerate() {
+                    while let Some(c) = claims.claim() {
                         if cancel.load(Ordering::Relaxed) {
                             break;
                         }
-                        // SAFETY: the helper writes unit k while the sweep reads only units
-                        // published before it (release/acquire on `done`).
-                        unsafe { asm.unit_for_cpu(k, v) };
-                        if (i + 1) % PUBLISH_EVERY == 0 || k == 0 {
-                            done.store(i + 1, Ordering::Release);
-                        }
+                        chunk(c);
+                        claims.publish(c);
                     }
                 };
                 let simd = self.simd;
                 worker::lock(shared).join(&mut job, || {
                     // Stops the helper however the sweep ends (result, early stop or panic).
                     let _cancel = CancelOnDrop(&cancel);
+                    let mut have = 0;
                     sweep.run_for_cpu(
                         &asm,
                         |k| {
-                            let need = big - k + 1;
-                            wait_until(|| {
-                                done.load(Ordering::Acquire) >= need
-                                    || failed.load(Ordering::Acquire)
-                            });
-                            if done.load(Ordering::Acquire) < need {
-                                panic!("the helper thread's assembly panicked");
+                            let c = (big - k) / CHUNK;
+                            if c < have {
+                                return;
                             }
+                            match claims.acquire(c, || failed.load(Ordering::Acquire)) {
+                                Acquired::Ready => {}
+                                Acquired::Mine => chunk(c),
+                                Acquired::Failed => {
+                                    panic!("the helper thread's assembly panicked")
+                                }
+                            }
+                            have = c + 1;
                         },
                         simd,
                     )

@@ -8,6 +8,17 @@ fn trajopt() -> Command {
     c
 }
 
+/// The one JSON object on stdout of a run that succeeded (else the test fails with its
+/// stderr).
+fn json_of(out: &std::process::Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON object")
+}
+
 #[test]
 fn solve_json_has_the_contract_fields() {
     let out_dir = std::env::temp_dir().join(format!("trajopt-cli-{}", std::process::id()));
@@ -16,13 +27,7 @@ fn solve_json_has_the_contract_fields() {
         .arg(&out_dir)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    let v = json_of(&out);
     for key in [
         "status",
         "iterations",
@@ -36,7 +41,7 @@ fn solve_json_has_the_contract_fields() {
         "integrator",
         "barrier",
     ] {
-        assert!(v.get(key).is_some(), "missing {key} in {stdout}");
+        assert!(v.get(key).is_some(), "missing {key} in {v}");
     }
     assert_eq!(v["status"], "optimal");
     assert_eq!(v["guess"], "equilibrium");
@@ -77,13 +82,7 @@ fn solve_picks_the_solver_file_for_its_objective() {
             .args(extra)
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let v: serde_json::Value =
-            serde_json::from_str(String::from_utf8(out.stdout).unwrap().trim()).unwrap();
+        let v = json_of(&out);
         (
             v["solver_file"].as_str().unwrap().to_string(),
             v["iterations"].as_u64().unwrap(),
@@ -159,12 +158,7 @@ fn solve_record_writes_a_replayable_mcap() {
         .arg(&file)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json_of(&out);
     assert_eq!(v["recording"]["inputs"], 2);
     assert_eq!(v["recording"]["outputs"], 2);
     assert_eq!(v["recording"]["dropped"], 0);
@@ -214,13 +208,7 @@ fn study_integrators_json_has_the_contract_fields() {
         .arg(&out_dir)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    let v = json_of(&out);
     assert_eq!(v["reference"], "implicit_euler");
     assert_eq!(v["repeat"], 1);
     let runs = v["runs"].as_array().unwrap();
@@ -268,12 +256,7 @@ fn study_stiffness_json_names_the_peak_and_its_state() {
         .arg(&out_dir)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let v = json_of(&out);
     assert_eq!(v["status"], "optimal");
     assert_eq!(v["jacobian"], "spatial");
     assert_eq!(v["nodes"].as_array().unwrap().len(), 101);
@@ -310,13 +293,7 @@ fn study_barrier_json_has_every_rule() {
         .args(["study", "barrier", "--repeat", "1", "--json"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON object");
+    let v = json_of(&out);
     let cap = v["max_refactorizations"].as_u64().expect("cap");
     assert_eq!(v["repeat"], 1);
     // The studies solve the paper's pure minimum time unless told otherwise.

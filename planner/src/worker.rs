@@ -26,6 +26,8 @@ const IDLE: u32 = 0;
 const READY: u32 = 1;
 const DONE: u32 = 2;
 const EXIT: u32 = 3;
+/// The helper took the job from the slot (READY -> RUNNING): the caller waits for DONE.
+const RUNNING: u32 = 4;
 
 /// A job whose lifetime was erased by [`Worker::join`], which does not return before the
 /// helper has finished with it.
@@ -98,6 +100,27 @@ impl Worker {
     /// once both are done (also when `main` panics: the helper is waited for first). A panic
     /// in `job` is raised here after both finished.
     pub fn join<R>(&mut self, job: &mut (dyn FnMut() + Send), main: impl FnOnce() -> R) -> R {
+        self.run(job, main, false)
+    }
+
+    /// As [`Self::join`], for a job that `main` can do without: if the helper has not
+    /// taken the job when `main` returns, the job is withdrawn and never runs, and this
+    /// returns without waiting for the helper to wake up (a parked or descheduled helper
+    /// then costs nothing). A job the helper has taken is waited for as in `join`.
+    pub fn join_or_skip<R>(
+        &mut self,
+        job: &mut (dyn FnMut() + Send),
+        main: impl FnOnce() -> R,
+    ) -> R {
+        self.run(job, main, true)
+    }
+
+    fn run<R>(
+        &mut self,
+        job: &mut (dyn FnMut() + Send),
+        main: impl FnOnce() -> R,
+        skippable: bool,
+    ) -> R {
         // SAFETY: only the lifetime is erased; `Wait` below does not let this function
         // return or unwind before the helper reports DONE, after which it never touches
         // the job again.
@@ -110,7 +133,10 @@ impl Worker {
         self.shared.state.store(READY, Ordering::Release);
         self.thread.unpark();
         let out = {
-            let _wait = Wait(&self.shared);
+            let _wait = Wait {
+                shared: &self.shared,
+                skippable,
+            };
             main()
         };
         if self.shared.panicked.swap(false, Ordering::Relaxed) {
@@ -120,17 +146,32 @@ impl Worker {
     }
 }
 
-/// Waits for the helper's DONE on drop, then marks the slot IDLE.
-struct Wait<'a>(&'a Shared);
+/// Waits for the helper's DONE on drop, then marks the slot IDLE; with `skippable`, first
+/// withdraws a job the helper has not taken (READY -> IDLE).
+struct Wait<'a> {
+    shared: &'a Shared,
+    skippable: bool,
+}
 
 impl Drop for Wait<'_> {
     fn drop(&mut self) {
-        wait_until(|| self.0.state.load(Ordering::Acquire) == DONE);
+        let s = self.shared;
+        if self.skippable
+            && s.state
+                .compare_exchange(READY, IDLE, Ordering::AcqRel, Ordering::Acquire)
+                .is_ok()
+        {
+            // SAFETY: the helper reads the slot only after it wins READY -> RUNNING, which
+            // it no longer can; the next join writes the slot before publishing READY.
+            unsafe { *s.job.get() = None };
+            return;
+        }
+        wait_until(|| s.state.load(Ordering::Acquire) == DONE);
         if thread::panicking() {
             // The caller's panic wins; a job panic of this join must not leak into the next.
-            self.0.panicked.store(false, Ordering::Relaxed);
+            s.panicked.store(false, Ordering::Relaxed);
         }
-        self.0.state.store(IDLE, Ordering::Relaxed);
+        s.state.store(IDLE, Ordering::Relaxed);
     }
 }
 
@@ -167,7 +208,14 @@ fn helper_loop(s: &Shared) {
         let mut polls = 0u32;
         loop {
             match s.state.load(Ordering::Acquire) {
-                READY => break,
+                // Taken only if the caller has not withdrawn it meanwhile (`join_or_skip`).
+                READY
+                    if s.state
+                        .compare_exchange(READY, RUNNING, Ordering::AcqRel, Ordering::Acquire)
+                        .is_ok() =>
+                {
+                    break
+                }
                 EXIT => return,
                 _ => {}
             }
@@ -179,7 +227,7 @@ fn helper_loop(s: &Shared) {
                 spin_loop();
             }
         }
-        // SAFETY: READY was observed with acquire ordering after the caller wrote the slot.
+        // SAFETY: READY was taken (READY -> RUNNING, acquire) after the caller wrote the slot.
         let job = unsafe { (*s.job.get()).take() };
         if let Some(job) = job {
             // SAFETY: the caller is blocked in `join` until DONE, so the job is alive, and
@@ -244,6 +292,38 @@ mod tests {
         let r = catch_unwind(AssertUnwindSafe(|| w.join(&mut || panic!("job"), || 1)));
         assert!(r.is_err());
         assert_eq!(w.join(&mut || {}, || 2), 2);
+    }
+
+    #[test]
+    fn a_skippable_job_runs_at_most_once_and_never_after_the_join() {
+        let mut w = Worker::start().expect("spawn");
+        let runs = AtomicUsize::new(0);
+        let mut last = 0;
+        for i in 0..2000 {
+            // Let the helper park now and then: a parked helper wakes too late to take the
+            // job, which is then withdrawn.
+            if i % 200 == 0 {
+                std::thread::sleep(SPIN * 4);
+            }
+            // A withdrawn job must not run after its join returned.
+            assert_eq!(runs.load(Ordering::Relaxed), last);
+            w.join_or_skip(
+                &mut || {
+                    runs.fetch_add(1, Ordering::Relaxed);
+                },
+                || (),
+            );
+            let now = runs.load(Ordering::Relaxed);
+            assert!(now - last <= 1);
+            last = now;
+        }
+        std::thread::sleep(SPIN * 4);
+        assert_eq!(runs.load(Ordering::Relaxed), last);
+        assert!(last < 2000, "no job was withdrawn");
+        // The worker still runs plain joins.
+        let hit = AtomicBool::new(false);
+        w.join(&mut || hit.store(true, Ordering::Relaxed), || ());
+        assert!(hit.load(Ordering::Relaxed));
     }
 
     #[test]

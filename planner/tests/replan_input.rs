@@ -2,7 +2,7 @@
 //! not finite or leave no corridor, and an initial state outside the model's domain, each
 //! with the entry named. A refused call leaves the next good replan's result unchanged.
 
-use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::config::{load_scenario, load_solver, load_vehicle, shipped_solver_file};
 use planner::model::{ix, NX};
 use planner::plan::{Planner, ReplanGuess};
 use std::path::Path;
@@ -12,7 +12,7 @@ fn replan_names_bad_road_samples_and_states_and_changes_nothing() {
     let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
     let vehicle = load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
     let spec = load_scenario(&root.join("scenarios/ca_critical.toml"), None, vehicle).unwrap();
-    let settings = load_solver(&root.join("solver.toml")).unwrap();
+    let settings = load_solver(&root.join(shipped_solver_file(spec.steering_slew_weight))).unwrap();
     let (kappa, e_min, e_max) = (spec.kappa.clone(), spec.e_min.clone(), spec.e_max.clone());
     let mut x0 = [0.0; NX];
     x0[ix::V] = 25.0;

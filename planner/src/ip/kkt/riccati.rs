@@ -135,7 +135,7 @@ impl<const NX: usize> Default for StageInverse<NX> {
 /// Factors of one stage, kept for the solves.
 #[derive(Debug, Clone)]
 struct StageFactor<const NX: usize, const NU: usize, const NZ: usize> {
-    // J_k stays in the arena, and F = E_k^-1 and whether J_k = [-I, G] in the stage's
+    // J_k stays in the arena, and F^T = E_k^-T and whether J_k = [-I, G] in the stage's
     // [`StageInverse`], until the next assembly; the solves read them there.
     /// Delta_k = 0: [[P^, I], [I, 0]]^-1 = [[0, I], [I, -P^]] and a11, a12 are unused.
     zero_delta: bool,
@@ -242,6 +242,8 @@ pub struct RiccatiKkt<const NX: usize, const NU: usize, const NZ: usize> {
     worker: Option<SharedWorker>,
     /// Who writes which units when the factorization is pipelined.
     claims: Claims,
+    /// Test knob: the helper claims no unit (see [`Self::set_helper_idle`]).
+    helper_idle: bool,
     /// All assembled blocks, column-major: W_k (k = 0..=N; W_N uses the NX x NX corner),
     /// X_k (rows z_{k+1}, columns z_k), E_k (index N: initial rows), J_k.
     arena: Vec<f64>,
@@ -648,6 +650,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             inverses: vec![StageInverse::default(); big],
             worker: None,
             claims: Claims::new(big + 1),
+            helper_idle: false,
             arena: vec![0.0; arena_len],
             x_base,
             e_base,
@@ -885,9 +888,11 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         }
     }
 
-    /// Steps 1 and 2: the units and the backward sweep. With a helper thread the helper
-    /// writes the units in sweep order while this thread sweeps, each stage waiting for
-    /// its unit; without one each unit is written just before its stage. Same bits.
+    /// Steps 1 and 2: the units and the backward sweep. With a helper thread the two take
+    /// the units in chunks, in sweep order ([`Claims`]): the helper writes the chunks it
+    /// claims while this thread sweeps, and the sweep writes the ones the helper has not
+    /// claimed when it reaches them. Without one each unit is written just before its
+    /// stage. Same bits.
     #[inline(always)]
     fn factorize_blocks(
         &mut self,
@@ -945,8 +950,12 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                         unsafe { asm.unit_for_cpu(big - i, v) };
                     }
                 };
+                let helper_idle = self.helper_idle;
                 let mut job = || {
                     let _flag = PanicFlag(&failed);
+                    if helper_idle {
+                        return;
+                    }
                     while let Some(c) = claims.claim() {
                         if cancel.load(Ordering::Relaxed) {
                             break;
@@ -956,7 +965,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
                     }
                 };
                 let simd = self.simd;
-                worker::lock(shared).join(&mut job, || {
+                // The sweep can do every chunk itself, so a job the helper has not taken by
+                // the end is withdrawn instead of waited for.
+                worker::lock(shared).join_or_skip(&mut job, || {
                     // Stops the helper however the sweep ends (result, early stop or panic).
                     let _cancel = CancelOnDrop(&cancel);
                     let mut have = 0;
@@ -1088,6 +1099,13 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
             _ => {}
         }
         Ok(())
+    }
+
+    /// For tests: with `idle`, the pipelined factorization's helper claims no unit, so the
+    /// sweep writes every chunk itself (the path a late or descheduled helper takes).
+    #[doc(hidden)]
+    pub fn set_helper_idle(&mut self, idle: bool) {
+        self.helper_idle = idle;
     }
 
     /// The helper thread of the pipelined factorization, to share with other stage-parallel
@@ -1313,8 +1331,9 @@ impl Drop for PanicFlag<'_> {
 }
 
 /// What writes the units: the op lists, read-only, and raw pointers to the arena and the
-/// stage inverses, which the helper thread writes unit by unit while the sweep reads the
-/// units already published (disjoint memory, ordered by `done`). Never a reference to the
+/// stage inverses. With a helper, each chunk of units is written by the one thread that
+/// claimed or took it, and the sweep reads a helper's chunk only after it is published
+/// ([`Claims`]: disjoint memory, release/acquire per chunk). Never a reference to the
 /// whole arena while both threads run.
 struct Assembly<'a, const NX: usize, const NZ: usize> {
     units: &'a [Unit],
@@ -1476,7 +1495,7 @@ impl<const NX: usize, const NZ: usize> Assembly<'_, NX, NZ> {
         block_ref(self.slice(self.j_base + k * NX * NZ, NX * NZ))
     }
 
-    /// E_k^-1 and whether J_k = [-I, G], or `Unsupported` when E_k is singular. Safety: as
+    /// F^T = E_k^-T and whether J_k = [-I, G], or `Unsupported` when E_k is singular. Safety: as
     /// [`Self::slice`].
     #[inline(always)]
     unsafe fn inverse(&self, k: usize) -> Result<&StageInverse<NX>, KktError> {

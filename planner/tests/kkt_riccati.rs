@@ -499,6 +499,41 @@ fn steps_match_dense_solve() {
     }
 }
 
+/// A NaN or infinity anywhere in the values (Hessian, Jacobian, either diagonal) is
+/// `NonFinite`, whichever entry it is; the same system then factorizes again.
+#[test]
+fn non_finite_values_are_rejected() {
+    use planner::ip::kkt::KktError;
+    const N: usize = 5;
+    let mut nlp = ImplicitEulerNlp::<N>::new(small_spec(N)).unwrap();
+    let structure = nlp.stage_structure().unwrap();
+    let mut rng = Rng(37);
+    let s = system(&mut nlp, &mut rng, 1e-8, false);
+    let mut ric = riccati_for(&structure, &s);
+    assert!(ric.factorize(&s.values()).is_ok());
+    let lens = [s.hess.len(), s.jac.len(), s.dx.len(), s.dc.len()];
+    for (which, &len) in lens.iter().enumerate() {
+        // First, last and a middle entry (the vector loop and its remainder).
+        for at in [0, len / 2, len - 1] {
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let mut t = s.clone();
+                match which {
+                    0 => t.hess[at] = bad,
+                    1 => t.jac[at] = bad,
+                    2 => t.dx[at] = bad,
+                    _ => t.dc[at] = bad,
+                }
+                assert_eq!(
+                    ric.factorize(&t.values()),
+                    Err(KktError::NonFinite),
+                    "array {which}, entry {at}: {bad}"
+                );
+            }
+        }
+    }
+    assert!(ric.factorize(&s.values()).is_ok());
+}
+
 /// A singular dynamics Jacobian E_k is outside what the Riccati sweep takes: it reports
 /// `Unsupported`, and the `auto` backend hands that factorization to the sparse LDL^T,
 /// whose step still solves the system.

@@ -1127,18 +1127,7 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         stop_on_excess: bool,
     ) -> Result<Inertia, KktError> {
         self.factorized = false;
-        let finite = |a: &[f64]| {
-            // x * 0 is NaN for NaN and +-inf; four independent sums vectorize.
-            let mut acc = [0.0f64; 4];
-            let mut chunks = a.chunks_exact(4);
-            for ch in &mut chunks {
-                for (s, &x) in acc.iter_mut().zip(ch) {
-                    *s += x * 0.0;
-                }
-            }
-            let tail: f64 = chunks.remainder().iter().map(|&x| x * 0.0).sum();
-            acc.iter().sum::<f64>() + tail == 0.0
-        };
+        let finite = crate::ip::vector::all_finite;
         if !(finite(v.hess) && finite(v.jac) && finite(v.primal_diag) && finite(v.dual_diag)) {
             return Err(KktError::NonFinite);
         }

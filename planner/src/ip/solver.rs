@@ -384,7 +384,8 @@ impl<K: KktSolver> Solver<K> {
                         s.tol,
                         s.mu_min,
                     );
-                    e = compute_errors(&mut self.ws, mu);
+                    // Same point: only the complementarity error depends on mu.
+                    e.compl_mu = vector::compl_mu(&self.ws, mu);
                 }
             }
 

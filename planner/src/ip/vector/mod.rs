@@ -431,10 +431,36 @@ pub fn bound_errors(ws: &mut Workspace, mu: f64) -> BoundErrors {
     }
 }
 
+/// max |s z - mu| over the complementarity pairs at a new mu: the `compl_mu` of
+/// [`bound_errors`] (a max of the same terms, so the same value in any order) without its
+/// other measures, which do not depend on mu, and without touching the dual residual.
+pub fn compl_mu(ws: &Workspace, mu: f64) -> f64 {
+    let es = Entries::of(ws);
+    let mut m = 0.0f64;
+    for j in 0..ws.n + ws.m {
+        let (_, e) = bound_error_entry(es.one(j), 0.0, mu);
+        m = max(max(m, e[2]), e[3]);
+    }
+    m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::ip::nlp::{Nlp, NlpDims};
+
+    #[test]
+    fn compl_mu_is_the_bound_errors_one() {
+        let ws = filled(0);
+        for mu in [0.0, 1e-9, 0.1, 3.0] {
+            for simd in [false, true] {
+                let mut b = ws.clone();
+                b.set_simd(simd);
+                let want = bound_errors(&mut b, mu).compl_mu;
+                assert_eq!(compl_mu(&ws, mu).to_bits(), want.to_bits(), "mu {mu}");
+            }
+        }
+    }
 
     /// Only the dimensions matter: the kernels see a filled workspace.
     struct Dims;

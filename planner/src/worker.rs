@@ -30,7 +30,7 @@ const EXIT: u32 = 3;
 const RUNNING: u32 = 4;
 
 /// A job whose lifetime was erased by [`Worker::join`], which does not return before the
-/// helper has finished with it.
+/// helper has finished with it (or, in [`Worker::join_or_skip`], has withdrawn it untaken).
 type JobPtr = *mut (dyn FnMut() + Send);
 
 struct Shared {
@@ -123,7 +123,8 @@ impl Worker {
     ) -> R {
         // SAFETY: only the lifetime is erased; `Wait` below does not let this function
         // return or unwind before the helper reports DONE, after which it never touches
-        // the job again.
+        // the job again, or before a skippable job is withdrawn untaken (READY -> IDLE,
+        // after which the helper cannot take it).
         let ptr: JobPtr = unsafe {
             std::mem::transmute::<&mut (dyn FnMut() + Send), &'static mut (dyn FnMut() + Send)>(job)
         };

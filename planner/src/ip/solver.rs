@@ -209,7 +209,7 @@ impl<K: KktSolver> Solver<K> {
         let mut free_mode = s.barrier != BarrierRule::Monotone;
         self.ws.progress.clear();
         self.ws.filter.clear();
-        let theta0 = norm1(&self.ws.c);
+        let theta0 = vector::norm1(&self.ws.c);
         let theta_max = 1e4 * theta0.max(1.0);
         let theta_min = 1e-4 * theta0.max(1.0);
         let mut mu_prev = f64::NAN;
@@ -440,7 +440,7 @@ impl<K: KktSolver> Solver<K> {
                 self.ws.filter.clear();
                 mu_prev = mu;
             }
-            let (theta_cur, f_cur) = (norm1(&self.ws.c), self.ws.f);
+            let (theta_cur, f_cur) = (vector::norm1(&self.ws.c), self.ws.f);
 
             // Line search on the merit function.
             let tl = Instant::now();
@@ -473,7 +473,7 @@ impl<K: KktSolver> Solver<K> {
                     force_reg = false;
                     if free_mode {
                         // Progress safeguard of free mode.
-                        let (theta_new, f_new) = (norm1(&self.ws.c), self.ws.f);
+                        let (theta_new, f_new) = (vector::norm1(&self.ws.c), self.ws.f);
                         let gamma = 1e-5;
                         let ok = self.ws.progress.iter().all(|&(th, f)| {
                             theta_new < (1.0 - gamma) * th || f_new < f - gamma * th
@@ -1493,7 +1493,7 @@ impl<K: KktSolver> Solver<K> {
         }
         let ws = &mut self.ws;
         residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g_t, &ws.w_t, &mut ws.c_t);
-        let theta_t = norm1(&self.ws.c_t);
+        let theta_t = vector::norm1(&self.ws.c_t);
         let phi_t = self.barrier_value(&self.ws.w_t, f_t, mu);
         phi_t.is_finite().then_some((f_t, theta_t, phi_t))
     }
@@ -1778,24 +1778,6 @@ impl LnSum {
     }
 }
 
-/// Sum of magnitudes in 16 fixed lanes, combined in a fixed order (deterministic; a serial
-/// sum ran as one chain of dependent adds, 1 % of a solve).
-fn norm1(v: &[f64]) -> f64 {
-    const W: usize = 16;
-    let (groups, tail) = v.as_chunks::<W>();
-    let mut acc = [0.0f64; W];
-    for g in groups {
-        for (a, &x) in acc.iter_mut().zip(g) {
-            *a += x.abs();
-        }
-    }
-    let mut s = acc.iter().sum::<f64>();
-    for &x in tail {
-        s += x.abs();
-    }
-    s
-}
-
 fn norm2(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -1803,18 +1785,6 @@ fn norm2(v: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::LnSum;
-
-    #[test]
-    fn norm1_sums_every_magnitude() {
-        for len in [0usize, 1, 15, 16, 17, 40, 100] {
-            // Integers: exact in any order, so every entry must be counted once.
-            let v: Vec<f64> = (0..len).map(|i| (i as f64 - 7.0) * 3.0).collect();
-            let want: f64 = v.iter().map(|x| x.abs()).sum();
-            assert_eq!(super::norm1(&v), want, "len {len}");
-        }
-        assert!(super::norm1(&[1.0, f64::NAN]).is_nan());
-        assert_eq!(super::norm1(&[f64::NEG_INFINITY; 20]), f64::INFINITY);
-    }
 
     fn ln_sum(v: &[f64]) -> f64 {
         let mut b = LnSum::default();

@@ -901,7 +901,9 @@ impl<const NX: usize, const NU: usize, const NZ: usize> RiccatiKkt<NX, NU, NZ> {
         stop_on_excess: bool,
     ) -> Result<Inertia, KktError> {
         let big = self.stages;
-        self.claims.reset();
+        if self.worker.is_some() {
+            self.claims.reset();
+        }
         let claims = &self.claims;
         let asm = Assembly::<NX, NZ> {
             units: &self.units,

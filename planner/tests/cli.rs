@@ -58,6 +58,20 @@ fn solve_json_has_the_contract_fields() {
     );
     let t = v["t_final"].as_f64().unwrap();
     assert!((t - 13.0699).abs() / 13.0699 < 5e-4, "t_final {t}");
+    // `times_ms` is the last solve's phases, `times_ms_median` each phase's median over the
+    // repeats (here one), whose total is `solve_ms`.
+    for key in [
+        "evaluation",
+        "factorization",
+        "solve",
+        "line_search",
+        "total",
+    ] {
+        let (last, med) = (&v["times_ms"][key], &v["times_ms_median"][key]);
+        assert!(med.as_f64().is_some_and(|x| x > 0.0), "{key}: {med}");
+        assert_eq!(last, med, "{key} with one solve");
+    }
+    assert_eq!(v["times_ms_median"]["total"], v["solve_ms"]);
     // CSV with one row per node and a PNG.
     let csv = std::fs::read_to_string(out_dir.join("oval.csv")).unwrap();
     assert_eq!(csv.lines().count(), 102);
@@ -171,6 +185,29 @@ fn solve_record_writes_a_replayable_mcap() {
     );
     assert_eq!(rec.inputs[0].scenario, "oval");
     assert!(!rec.inputs[0].initial_state_fixed);
+    // With two solves the medians are the upper values: the total's is the larger of
+    // `solve_ms_all`, and each phase's at least the last solve's.
+    let all: Vec<f64> = v["solve_ms_all"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(all.len(), 2);
+    assert_eq!(
+        v["times_ms_median"]["total"].as_f64(),
+        Some(all[0].max(all[1]))
+    );
+    for key in ["evaluation", "factorization", "solve", "line_search"] {
+        let (last, med) = (
+            v["times_ms"][key].as_f64().unwrap(),
+            v["times_ms_median"][key].as_f64().unwrap(),
+        );
+        assert!(
+            med >= last,
+            "{key}: median {med} below the last solve's {last}"
+        );
+    }
     // An unwritable path is bad input: exit 2 before solving.
     let out = trajopt()
         .args([

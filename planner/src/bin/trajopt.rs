@@ -431,11 +431,20 @@ fn solve(args: SolveArgs) -> Result<(), String> {
     };
 
     let mut times = Vec::with_capacity(args.repeat);
+    // Per phase over the repeats: evaluation, factorization, solve, line search (ms).
+    let mut phases: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(args.repeat));
     let mut info: Option<SolveInfo> = None;
     for seq in 0..args.repeat as u64 {
         let stamp = now_ns();
         let i = planner.solve(guess);
         times.push(i.times.total * 1e3);
+        let t = &i.times;
+        for (v, x) in phases
+            .iter_mut()
+            .zip([t.evaluation, t.factorization, t.solve, t.line_search])
+        {
+            v.push(x * 1e3);
+        }
         if let Some(rec) = &recorder {
             let mut inp = input.clone();
             inp.seq = seq;
@@ -492,8 +501,16 @@ fn solve(args: SolveArgs) -> Result<(), String> {
             );
         }
     }
+    // Medians (the upper one for an even count), the total's being `solve_ms`; the phase
+    // medians need not add up to it.
+    let median = |v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        s[s.len() / 2]
+    };
+    let solve_ms = median(&times);
+    let [ev_med, fa_med, so_med, ls_med] = phases.each_ref().map(|v| median(v));
     times.sort_by(f64::total_cmp);
-    let solve_ms = times[times.len() / 2];
     let traj = planner.trajectory();
     let name = planner.spec().name.clone();
     let worst = worst_rows(&mut planner, 5);
@@ -524,7 +541,7 @@ fn solve(args: SolveArgs) -> Result<(), String> {
          t_final {tf:.4} s, max violation {mv:.2e} (initial {iv:.2e}, {sv:.2e} pushed into the bounds), max |beta| {mb:.3} rad\n  \
          guess {guess} (V {v:.2} m/s), integrator implicit_euler, barrier {barrier}, kkt {kkt}, \
          tire saturation {sat}, {objective}\n  \
-         time: evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
+         time (medians of {rep}): evaluation {ev:.2} ms, factorization {fa:.2} ms, solve {so:.2} ms, line search {ls:.2} ms; \
          {nf} factorizations (max {mf} per iteration, cap {cap}), {fb} fallback steps",
         status = info.status.name(),
         it = info.iterations,
@@ -540,10 +557,10 @@ fn solve(args: SolveArgs) -> Result<(), String> {
         kkt = planner.solver().kkt().name(),
         sat = if saturation { "on" } else { "off" },
         objective = planner::ocp::objective::label(slew),
-        ev = info.times.evaluation * 1e3,
-        fa = info.times.factorization * 1e3,
-        so = info.times.solve * 1e3,
-        ls = info.times.line_search * 1e3,
+        ev = ev_med,
+        fa = fa_med,
+        so = so_med,
+        ls = ls_med,
         nf = info.factorizations,
         mf = info.max_factorizations_per_iter,
         cap = settings.max_refactorizations,
@@ -585,6 +602,13 @@ fn solve(args: SolveArgs) -> Result<(), String> {
                 "solve": info.times.solve * 1e3,
                 "line_search": info.times.line_search * 1e3,
                 "total": info.times.total * 1e3,
+            },
+            "times_ms_median": {
+                "evaluation": ev_med,
+                "factorization": fa_med,
+                "solve": so_med,
+                "line_search": ls_med,
+                "total": solve_ms,
             },
             "equilibrium": eq,
             "worst_rows": worst.iter().map(|(r, v)| serde_json::json!({"row": r, "violation": v})).collect::<Vec<_>>(),

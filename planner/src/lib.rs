@@ -10,6 +10,7 @@
 
 pub mod config;
 pub mod cpu;
+pub mod elementary;
 pub mod guess;
 pub mod ip;
 pub mod model;

@@ -1,6 +1,7 @@
 //! Barrier parameter rules (paper Sec. VI-C): the pieces shared by the solver loop.
 
 use super::workspace::Workspace;
+use crate::elementary::{exp, ln, pow};
 
 /// The monotone rule's last barrier parameter, as a fraction of the tolerance `tol`.
 /// IPOPT stops at tol / 11 so that its barrier-subproblem test implies convergence; here
@@ -16,7 +17,7 @@ pub const MU_FLOOR_TOL_FRACTION: f64 = 0.5;
 /// [`MU_FLOOR_TOL_FRACTION`]).
 pub fn monotone_next(mu: f64, kappa: f64, theta: f64, tol: f64, mu_min: f64) -> f64 {
     (kappa * mu)
-        .min(mu.powf(theta))
+        .min(pow(mu, theta))
         .max(tol * MU_FLOOR_TOL_FRACTION)
         .max(mu_min)
 }
@@ -135,12 +136,12 @@ pub fn quality(ws: &Workspace, sigma: f64, tau: f64, rd2: f64, rp2: f64) -> f64 
 /// Minimizes [`quality`] over sigma in [lo, hi] by golden-section search on ln sigma with
 /// [`QUALITY_EVALS`] evaluations (deterministic, bounded); returns the best sigma seen.
 pub fn quality_sigma(ws: &Workspace, lo: f64, hi: f64, tau: f64, rd2: f64, rp2: f64) -> f64 {
-    let (mut a, mut b) = (lo.ln(), hi.ln());
+    let (mut a, mut b) = (ln(lo), ln(hi));
     if a.partial_cmp(&b) != Some(std::cmp::Ordering::Less) {
         return hi;
     }
     let g = 0.5 * (5f64.sqrt() - 1.0);
-    let q = |t: f64| quality(ws, t.exp(), tau, rd2, rp2);
+    let q = |t: f64| quality(ws, exp(t), tau, rd2, rp2);
     let mut x1 = b - g * (b - a);
     let mut x2 = a + g * (b - a);
     let (mut q1, mut q2) = (q(x1), q(x2));
@@ -160,8 +161,8 @@ pub fn quality_sigma(ws: &Workspace, lo: f64, hi: f64, tau: f64, rd2: f64, rp2: 
         }
     }
     if q1 <= q2 {
-        x1.exp()
+        exp(x1)
     } else {
-        x2.exp()
+        exp(x2)
     }
 }

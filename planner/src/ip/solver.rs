@@ -2,6 +2,7 @@
 //! Newton steps on the primal-dual system (eq. 6), globalized by a line search on the
 //! l2 merit function (eq. 5), with inertia correction and a barrier-update rule.
 
+use crate::elementary::{ln, pow};
 use std::time::Instant;
 
 use super::barrier;
@@ -850,7 +851,7 @@ impl<K: KktSolver> Solver<K> {
                 // Wrong inertia, found at the end or (stopped early) on the way.
                 Ok(_) | Err(KktError::WrongInertia) => {}
                 Err(KktError::Singular) => {
-                    delta_c = delta_c.max(1e-8 * mu.max(1e-12).powf(0.25));
+                    delta_c = delta_c.max(1e-8 * pow(mu.max(1e-12), 0.25));
                 }
                 Err(KktError::NonFinite | KktError::Unsupported) => return Err(count),
             }
@@ -1375,7 +1376,7 @@ impl<K: KktSolver> Solver<K> {
             if grad_d < 0.0 {
                 g * GAMMA_THETA
                     .min(GAMMA_PHI * theta / -grad_d)
-                    .min(DELTA * theta.powf(S_THETA) / (-grad_d).powf(S_PHI))
+                    .min(DELTA * pow(theta, S_THETA) / pow(-grad_d, S_PHI))
             } else {
                 g * GAMMA_THETA
             }
@@ -1394,7 +1395,7 @@ impl<K: KktSolver> Solver<K> {
                 continue;
             };
             let switching =
-                grad_d < 0.0 && alpha * (-grad_d).powf(S_PHI) > DELTA * theta.powf(S_THETA);
+                grad_d < 0.0 && alpha * pow(-grad_d, S_PHI) > DELTA * pow(theta, S_THETA);
             let armijo = le(phi_t, phi + 1e-8 * alpha * grad_d, phi);
             let f_type = theta <= theta_min && switching;
             let ok = if f_type {
@@ -1765,16 +1766,16 @@ impl LnSum {
         if d > Self::LO && d < Self::HI {
             self.prod *= d;
             if !(self.prod > Self::LO && self.prod < Self::HI) {
-                self.sum += self.prod.ln();
+                self.sum += ln(self.prod);
                 self.prod = 1.0;
             }
         } else {
-            self.sum += d.ln();
+            self.sum += ln(d);
         }
     }
 
     fn value(self) -> f64 {
-        self.sum + self.prod.ln()
+        self.sum + ln(self.prod)
     }
 }
 

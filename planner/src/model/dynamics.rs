@@ -4,6 +4,7 @@
 
 use super::tire::{tire_forces, TireForces};
 use super::{iu, ix, VehicleParams, NU, NX};
+use crate::elementary as trig;
 use num_dual::DualNum;
 
 /// Time derivatives dx/dt of all nine states and the path speed sdot, plus the tire forces.
@@ -41,9 +42,9 @@ pub fn time_derivatives<D: DualNum<Primitive = f64> + Copy>(
         fxf, fyf, fxr, fyr, ..
     } = tires;
 
-    let (sd, cd) = delta.sin_cos();
-    let (sb, cb) = beta.sin_cos();
-    let (sdb, cdb) = (delta - beta).sin_cos();
+    let (sd, cd) = trig::sin_cos(delta);
+    let (sb, cb) = trig::sin_cos(beta);
+    let (sdb, cdb) = trig::sin_cos(delta - beta);
 
     // eq. (1) row 1: r_dot = (a (F_xf sin delta + F_yf cos delta) - b F_yr) / I_z.
     let r_dot = ((fxf * sd + fyf * cd) * p.a - fyr * p.b) / p.i_z;
@@ -61,7 +62,7 @@ pub fn time_derivatives<D: DualNum<Primitive = f64> + Copy>(
     let fx_net = fxr + fxf * cd - fyf * sd;
     let dfz_dot = -(dfz - fx_net * (p.h_cg / p.l)) * p.c_l;
     // Path speed (paper, below eq. 1): sdot = V cos(dpsi) / (1 - kappa e).
-    let (sp, cp) = dpsi.sin_cos();
+    let (sp, cp) = trig::sin_cos(dpsi);
     let sdot = v * cp / (-(e * kappa) + 1.0);
     // eq. (1) rows 6-9: e_dot = V sin dpsi, dpsi_dot = beta_dot + r - kappa sdot,
     // s_dot = sdot, t_dot = 1 (R3).

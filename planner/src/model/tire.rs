@@ -20,6 +20,7 @@
 //!   past the onset of full sliding, so brief saturation does not make the OCP infeasible.
 
 use super::{iu, ix, VehicleParams, NU, NX};
+use crate::elementary as trig;
 use num_dual::DualNum;
 
 /// Tire forces, loads and slips of both axles at one (x, u), generic over the scalar.
@@ -117,14 +118,14 @@ fn slips<D: DualNum<Primitive = f64> + Copy>(
     let fzr = dfz + p.fz_nom_rear();
 
     // Slips (paper Sec. II-A).
-    let (sb, cb) = beta.sin_cos();
+    let (sb, cb) = trig::sin_cos(beta);
     let vx = v * cb;
     let inv_vx = vx.recip();
     let vy = v * sb;
     // tan(alpha_f + delta) = (V sin beta + a r)/(V cos beta); tan(alpha_f) by the tan
     // subtraction formula tan(A - delta) = (tan A - tan delta)/(1 + tan A tan delta).
     let tan_af_plus = (vy + r * p.a) * inv_vx;
-    let td = delta.tan();
+    let td = trig::tan(delta);
     let tan_alpha_f = (tan_af_plus - td) / (tan_af_plus * td + 1.0);
     // tan(alpha_r) = (V sin beta - b r)/(V cos beta).
     let tan_alpha_r = (vy - r * p.b) * inv_vx;

@@ -13,6 +13,8 @@
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
+use crate::elementary::{sin_cos_f64, tan_f64};
+
 /// Arithmetic needed by the fast model pieces: field operations, scalar operations and the
 /// few elementary functions of the model.
 pub trait Arith:
@@ -60,11 +62,11 @@ impl Arith for f64 {
     }
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
-        f64::sin_cos(self)
+        sin_cos_f64(self)
     }
     #[inline(always)]
     fn tan(self) -> Self {
-        f64::tan(self)
+        tan_f64(self)
     }
 }
 
@@ -375,12 +377,12 @@ impl<const M: usize> Arith for D1<M> {
     }
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
-        let (s, c) = self.re.sin_cos();
+        let (s, c) = sin_cos_f64(self.re);
         (self.chain(s, c), self.chain(c, -s))
     }
     #[inline(always)]
     fn tan(self) -> Self {
-        let t = self.re.tan();
+        let t = tan_f64(self.re);
         self.chain(t, 1.0 + t * t)
     }
 }
@@ -512,12 +514,12 @@ impl<const M: usize> Arith for D2<M> {
     }
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
-        let (s, c) = self.re.sin_cos();
+        let (s, c) = sin_cos_f64(self.re);
         (self.chain(s, c, -s), self.chain(c, -s, -c))
     }
     #[inline(always)]
     fn tan(self) -> Self {
-        let t = self.re.tan();
+        let t = tan_f64(self.re);
         let d1 = 1.0 + t * t;
         self.chain(t, d1, 2.0 * t * d1)
     }

@@ -9,6 +9,7 @@
 use super::Profile;
 use crate::config::csv::read_rows;
 use crate::config::ConfigError;
+use crate::elementary::hypot;
 use std::path::Path;
 
 /// Target knot spacing of the periodic cubic B-spline [m].
@@ -133,7 +134,7 @@ impl PeriodicSpline {
     /// Signed curvature (x'y'' - y'x'') / |r'|^3 at parameter u.
     fn curvature(&self, u: f64) -> f64 {
         let (d1, d2) = (self.eval(u, 1), self.eval(u, 2));
-        (d1[0] * d2[1] - d1[1] * d2[0]) / d1[0].hypot(d1[1]).powi(3)
+        (d1[0] * d2[1] - d1[1] * d2[0]) / hypot(d1[0], d1[1]).powi(3)
     }
 }
 
@@ -278,7 +279,7 @@ impl Profile {
         let du = period / n_dense as f64;
         let speed = |k: usize| {
             let d = spline.eval(k as f64 * du, 1);
-            d[0].hypot(d[1])
+            hypot(d[0], d[1])
         };
         let mut s_dense = Vec::with_capacity(n_dense + 1);
         s_dense.push(0.0);
@@ -308,7 +309,7 @@ impl Profile {
             let c = spline.eval(u, 0);
             let d1 = spline.eval(u, 1);
             // Signed offset of the raw point from the smoothed line along the left normal.
-            let d_lat = ((p[0] - c[0]) * -d1[1] + (p[1] - c[1]) * d1[0]) / d1[0].hypot(d1[1]);
+            let d_lat = ((p[0] - c[0]) * -d1[1] + (p[1] - c[1]) * d1[0]) / hypot(d1[0], d1[1]);
             // s(u) on the uniform u grid.
             let k = ((u / du).floor() as usize).min(n_dense - 1);
             s_raw.push(lerp(&s_dense, (k, u / du - k as f64)));

@@ -231,7 +231,7 @@ impl Profile {
             }
             if i > 0 {
                 let [px, py] = points[i - 1];
-                let chord = f64::hypot(x - px, y - py);
+                let chord = hypot(x - px, y - py);
                 if chord <= 0.0 {
                     return Err(ConfigError::csv(
                         path,
@@ -246,7 +246,7 @@ impl Profile {
         }
         let [x0, y0] = points[0];
         let [xl, yl] = points[points.len() - 1];
-        period += f64::hypot(x0 - xl, y0 - yl);
+        period += hypot(x0 - xl, y0 - yl);
         let m = (period / KNOT_SPACING_M).round() as usize;
         if period > 1.0e6 {
             return Err(ConfigError::csv(

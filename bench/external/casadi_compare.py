@@ -6,7 +6,11 @@ Same problem as the planner (implicit Euler, N = 100, scaled as in
 planner/src/ocp/scaling.rs, saturation, friction and rate rows of
 planner/src/ocp/path_constraints.rs, the steering-slew objective), same equilibrium guess,
 tolerance 1e-6. The vehicle is read from the vehicle TOML; the road (kappa, e_min, e_max at
-the nodes) and the guess come from `trajopt` itself, so both sides solve the same data.
+the nodes, to the 6-8 decimals of trajopt's CSV) and the guess come from `trajopt` itself.
+Two differences in form, none in the feasible set: IPOPT gets the variable bounds as bounds
+(`detect_simple_bounds`; Opti writes them as rows), and the six never-binding envelope rows
+of the free initial state (|r_0| <= 10 rad/s etc., which the Rust NLP keeps for its KKT
+structure) are left out.
 
 FATROP takes only explicit dynamics x_{k+1} = F(x_k, u_k) and constraints within a stage:
 implicit Euler is lifted (x_{k+1} becomes 9 extra controls y_k with the defect as a path
@@ -16,7 +20,11 @@ states (nx = 13, nu = 12). That is what a FATROP user must write for this OCP.
 Derivatives are CasADi's exact ones, JIT-compiled with `gcc -O3 -march=native` (the
 fastest CasADi offers; `--no-jit` uses its virtual machine). The JIT compile takes a few
 minutes per solver. Timed: the solver Function called K times (Opti's Python overhead is
-outside), median.
+outside), median. That call includes what each solve of these solvers pays anyway (IPOPT
+builds its problem and MUMPS its symbolic analysis per call); trajopt's `solve_ms` excludes
+its one-time setup, as the planner runs it. `evaluation_ms`: trajopt's evaluation phase
+(constraint values and derivatives, median); for CasADi the Jacobian (with g), Hessian
+and gradient calls of the last timed solve.
 
 Setup (not needed by CI): python3 -m venv .venv && .venv/bin/pip install -r
 bench/external/requirements.txt; cargo build --release -p planner --bin trajopt. Then:
@@ -37,7 +45,11 @@ import tempfile
 import time
 import tomllib
 
-import casadi as ca
+# One thread for every library (MUMPS's BLAS too), as trajopt's default.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import casadi as ca  # noqa: E402
 
 # planner/src/ocp/scaling.rs
 X_NOMINAL = [1.0, 10.0, 0.1, 10.0, 1000.0, 1.0, 0.1, 100.0, 10.0]
@@ -140,10 +152,14 @@ def trajopt_run(args, case, out_dir):
     base = [args.trajopt, "solve", "--vehicle", args.vehicle, "--scenario", path]
     if segment:
         base += ["--segment", segment]
-    first = json.loads(subprocess.run(base + ["--json", "--out-dir", out_dir], check=True,
-                                      capture_output=True, text=True).stdout)
-    timed = json.loads(subprocess.run(base + ["--json", "--no-output", "--repeat", str(args.repeat)],
-                                      check=True, capture_output=True, text=True).stdout)
+    def run(extra):
+        done = subprocess.run(base + extra, capture_output=True, text=True)
+        if done.returncode != 0:
+            sys.exit(f"{case}: {' '.join(base + extra)} failed:\n{done.stderr.strip()}")
+        return json.loads(done.stdout)
+
+    first = run(["--json", "--out-dir", out_dir])
+    timed = run(["--json", "--no-output", "--repeat", str(args.repeat)])
     csv_path = next(f for f in first["files"] if f.endswith(".csv"))
     with open(csv_path) as f:
         nodes = list(csv.DictReader(f))
@@ -176,12 +192,13 @@ class Case:
         self.name = name
         self.n = len(nodes) - 1
         s = [float(r["s_grid"]) for r in nodes]
-        self.ds = s[1] - s[0]
+        self.ds = s[-1] / self.n  # the CSV rounds s_k to 6 decimals; s_N = length is exact
         self.kappa = [float(r["kappa"]) for r in nodes]
         self.e_lo = [float(r["e_min"]) / X_NOMINAL[E] for r in nodes]
         self.e_hi = [float(r["e_max"]) / X_NOMINAL[E] for r in nodes]
         self.v_min, self.v_max = speed_bounds(*scenario_of(args, name))
         self.slew_weight = self.first["steering_slew_weight"]
+        self.saturation = self.first["tire_saturation"]
         eq = self.first["equilibrium"]
         self.x_eq, self.u_eq = eq["x"], eq["u"]
 
@@ -215,6 +232,7 @@ class Nlp:
         self.e_lo, self.e_hi = opti.parameter(n + 1), opti.parameter(n + 1)
         self.v_lo, self.v_hi = opti.parameter(), opti.parameter()
         self.ds, self.slew = opti.parameter(), opti.parameter()
+        self.sat_hi = opti.parameter()  # eps_sat / scale, or +inf without saturation rows
         zx, zu, zy, kap, ds = (ca.SX.sym(n_, d) for n_, d in (("x", NX), ("u", NU), ("y", NX), ("k", 1), ("ds", 1)))
         phys_x = lambda z: [z[i] * X_NOMINAL[i] for i in range(NX)]
         phys_u = [zu[j] * U_NOMINAL[j] for j in range(NU)]
@@ -262,7 +280,7 @@ class Nlp:
         lo = [p.u_lo[j] / U_NOMINAL[j] for j in range(NU)]
         hi = [p.u_hi[j] / U_NOMINAL[j] for j in range(NU)]
         opti.subject_to(opti.bounded(lo, u, hi))
-        opti.subject_to(self.sat(x, u) <= p.eps_sat / SATURATION_SCALE_FREE)
+        opti.subject_to(self.sat(x, u) <= self.sat_hi)
         opti.subject_to(self.friction(x, u) >= 0)
         opti.subject_to(self.friction(x_next, u) >= 0)
 
@@ -286,6 +304,7 @@ class Nlp:
         opti.set_value(self.v_lo, case.v_min / X_NOMINAL[V])
         opti.set_value(self.v_hi, case.v_max / X_NOMINAL[V])
         opti.set_value(self.ds, case.ds)
+        opti.set_value(self.sat_hi, self.p.eps_sat / SATURATION_SCALE_FREE if case.saturation else ca.inf)
         opti.set_value(self.slew, case.slew_weight * (U_NOMINAL[0] / self.p.rates[0]) ** 2 / OBJECTIVE_SCALE)
         for k in range(self.n + 1):
             gx = case.guess_x(k)
@@ -304,7 +323,7 @@ def make_nlp(p, n, name, args):
     }
     nlp = Nlp(p, n, lifted=(name == "fatrop"))
     if name == "ipopt":
-        nlp.opti.solver("ipopt", {"expand": True, "print_time": False, **jit},
+        nlp.opti.solver("ipopt", {"expand": True, "print_time": False, "detect_simple_bounds": True, **jit},
                         {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0, "sb": "yes",
                          "linear_solver": "mumps"})
     elif name == "fatrop":
@@ -324,8 +343,11 @@ def run_case(nlp, name, case, args):
     t0 = time.perf_counter()
     try:
         t_final = float(opti.solve().value(t_n)) * X_NOMINAL[T]
-    except RuntimeError:
-        t_final = float(opti.debug.value(t_n)) * X_NOMINAL[T]
+    except RuntimeError as err:
+        try:  # solved but not converged: report the last iterate
+            t_final = float(opti.debug.value(t_n)) * X_NOMINAL[T]
+        except RuntimeError:
+            sys.exit(f"{case.name}: {name} did not run: {err}")
     first_s = time.perf_counter() - t0
     solver, arg = opti.debug.casadi_solver, opti.debug.arg()
     ms = []
@@ -335,16 +357,16 @@ def run_case(nlp, name, case, args):
         ms.append((time.perf_counter() - t0) * 1e3)
     stats = solver.stats()
     its = stats.get("iter_count")
-    status = stats.get("return_status")
-    if not isinstance(status, str):  # FATROP returns a number
-        status = stats.get("unified_return_status", str(status))
+    status = str(stats.get("return_status"))
+    if status == "0":  # some FATROP builds report a number
+        status = str(stats.get("unified_return_status", status))
     deriv_s = sum(stats.get(k, 0.0) for k in ("t_wall_nlp_hess_l", "t_wall_nlp_jac_g", "t_wall_nlp_grad_f"))
     med = statistics.median(ms)
     return {
         "case": case.name, "solver": name, "status": status, "iterations": its,
         "t_final": t_final, "solve_ms_median": med, "solve_ms_min": min(ms),
-        "ms_per_iteration": med / its if its else None,
-        "derivatives_ms": deriv_s * 1e3, "hessian_ms": stats.get("t_wall_nlp_hess_l", 0.0) * 1e3,
+        "ms_per_iteration": med / its if its else float("nan"),
+        "evaluation_ms": deriv_s * 1e3, "hessian_ms": stats.get("t_wall_nlp_hess_l", 0.0) * 1e3,
         "first_solve_s": first_s,
     }
 
@@ -354,15 +376,15 @@ def trajopt_row(case):
     return {
         "case": case.name, "solver": "trajopt", "status": t["status"], "iterations": t["iterations"],
         "t_final": t["t_final"], "solve_ms_median": t["solve_ms"], "solve_ms_min": min(t["solve_ms_all"]),
-        "ms_per_iteration": t["solve_ms"] / t["iterations"],
-        "derivatives_ms": t["times_ms_median"]["evaluation"], "hessian_ms": None, "first_solve_s": None,
+        "ms_per_iteration": t["solve_ms"] / t["iterations"] if t["iterations"] else float("nan"),
+        "evaluation_ms": t["times_ms_median"]["evaluation"], "hessian_ms": None, "first_solve_s": None,
     }
 
 
 def main():
     args = parse_args()
     p = Vehicle(args.vehicle)
-    cases = [Case(args, name) for name in args.cases.split(",")]
+    cases = [Case(args, name.strip()) for name in args.cases.split(",")]
     rows = [trajopt_row(c) for c in cases]
     for name in args.solvers.split(","):
         nlp = make_nlp(p, cases[0].n, name, args)
@@ -371,10 +393,10 @@ def main():
     print(f"median of {args.repeat} solves each; CasADi derivatives "
           f"{'interpreted' if args.no_jit else 'JIT-compiled (gcc -O3 -march=native)'}", file=sys.stderr)
     print(f"{'case':6} {'solver':8} {'status':18} {'its':>4} {'t_N [s]':>9} {'median ms':>10} "
-          f"{'ms/it':>7} {'deriv ms':>9}", file=sys.stderr)
+          f"{'ms/it':>7} {'eval ms':>9}", file=sys.stderr)
     for r in rows:
-        print(f"{r['case']:6} {r['solver']:8} {r['status'][:18]:18} {r['iterations']:>4} {r['t_final']:9.4f} "
-              f"{r['solve_ms_median']:10.2f} {r['ms_per_iteration']:7.3f} {r['derivatives_ms']:9.2f}",
+        print(f"{r['case']:6} {r['solver']:8} {r['status'][:18]:18} {r['iterations'] or 0:>4} {r['t_final']:9.4f} "
+              f"{r['solve_ms_median']:10.2f} {r['ms_per_iteration']:7.3f} {r['evaluation_ms']:9.2f}",
               file=sys.stderr)
     print(json.dumps({"repeat": args.repeat, "jit": not args.no_jit, "results": rows}, indent=1))
 

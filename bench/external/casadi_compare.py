@@ -36,7 +36,6 @@ all the cases.
 import argparse
 import csv
 import json
-import math
 import os
 import statistics
 import subprocess
@@ -146,8 +145,8 @@ def scenario_of(args, case):
 
 
 def trajopt_run(args, case, out_dir):
-    """`trajopt solve` of a case once with files (the road at the nodes) and K times for
-    its timing."""
+    """`trajopt solve --repeat K` of a case: the timing, and the files (the road at the
+    nodes), which it writes once after the solves."""
     path, segment = scenario_of(args, case)
     base = [args.trajopt, "solve", "--vehicle", args.vehicle, "--scenario", path]
     if segment:
@@ -158,12 +157,11 @@ def trajopt_run(args, case, out_dir):
             sys.exit(f"{case}: {' '.join(base + extra)} failed:\n{done.stderr.strip()}")
         return json.loads(done.stdout)
 
-    first = run(["--json", "--out-dir", out_dir])
-    timed = run(["--json", "--no-output", "--repeat", str(args.repeat)])
-    csv_path = next(f for f in first["files"] if f.endswith(".csv"))
+    out = run(["--json", "--out-dir", out_dir, "--repeat", str(args.repeat)])
+    csv_path = next(f for f in out["files"] if f.endswith(".csv"))
     with open(csv_path) as f:
         nodes = list(csv.DictReader(f))
-    return first, timed, nodes
+    return out, nodes
 
 
 def speed_bounds(path, segment):
@@ -188,7 +186,7 @@ class Case:
 
     def __init__(self, args, name):
         with tempfile.TemporaryDirectory() as out_dir:
-            self.first, self.timed, nodes = trajopt_run(args, name, out_dir)
+            self.out, nodes = trajopt_run(args, name, out_dir)
         self.name = name
         self.n = len(nodes) - 1
         s = [float(r["s_grid"]) for r in nodes]
@@ -197,9 +195,9 @@ class Case:
         self.e_lo = [float(r["e_min"]) / X_NOMINAL[E] for r in nodes]
         self.e_hi = [float(r["e_max"]) / X_NOMINAL[E] for r in nodes]
         self.v_min, self.v_max = speed_bounds(*scenario_of(args, name))
-        self.slew_weight = self.first["steering_slew_weight"]
-        self.saturation = self.first["tire_saturation"]
-        eq = self.first["equilibrium"]
+        self.slew_weight = self.out["steering_slew_weight"]
+        self.saturation = self.out["tire_saturation"]
+        eq = self.out["equilibrium"]
         self.x_eq, self.u_eq = eq["x"], eq["u"]
 
     def guess_x(self, k):
@@ -321,17 +319,17 @@ def make_nlp(p, n, name, args):
         "jit": True, "compiler": "shell",
         "jit_options": {"flags": ["-O3", "-march=native"], "verbose": False},
     }
+    if name not in ("ipopt", "fatrop"):
+        sys.exit(f"unknown solver {name!r} (ipopt, fatrop)")
     nlp = Nlp(p, n, lifted=(name == "fatrop"))
     if name == "ipopt":
         nlp.opti.solver("ipopt", {"expand": True, "print_time": False, "detect_simple_bounds": True, **jit},
                         {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0, "sb": "yes",
                          "linear_solver": "mumps"})
-    elif name == "fatrop":
+    else:
         nlp.opti.solver("fatrop", {"expand": True, "print_time": False, "structure_detection": "auto",
                                    "fatrop": {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0},
                                    **jit})
-    else:
-        sys.exit(f"unknown solver {name!r} (ipopt, fatrop)")
     return nlp
 
 
@@ -360,19 +358,19 @@ def run_case(nlp, name, case, args):
     status = str(stats.get("return_status"))
     if status == "0":  # some FATROP builds report a number
         status = str(stats.get("unified_return_status", status))
-    deriv_s = sum(stats.get(k, 0.0) for k in ("t_wall_nlp_hess_l", "t_wall_nlp_jac_g", "t_wall_nlp_grad_f"))
+    eval_s = sum(stats.get(k, 0.0) for k in ("t_wall_nlp_hess_l", "t_wall_nlp_jac_g", "t_wall_nlp_grad_f"))
     med = statistics.median(ms)
     return {
         "case": case.name, "solver": name, "status": status, "iterations": its,
         "t_final": t_final, "solve_ms_median": med, "solve_ms_min": min(ms),
         "ms_per_iteration": med / its if its else float("nan"),
-        "evaluation_ms": deriv_s * 1e3, "hessian_ms": stats.get("t_wall_nlp_hess_l", 0.0) * 1e3,
+        "evaluation_ms": eval_s * 1e3, "hessian_ms": stats.get("t_wall_nlp_hess_l", 0.0) * 1e3,
         "first_solve_s": first_s,
     }
 
 
 def trajopt_row(case):
-    t = case.timed
+    t = case.out
     return {
         "case": case.name, "solver": "trajopt", "status": t["status"], "iterations": t["iterations"],
         "t_final": t["t_final"], "solve_ms_median": t["solve_ms"], "solve_ms_min": min(t["solve_ms_all"]),

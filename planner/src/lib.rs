@@ -22,3 +22,7 @@ pub mod study;
 pub mod track;
 pub mod trajectory;
 pub mod worker;
+
+/// Number of intervals N of the planning horizon (paper: N = 100 over about 250 m). The
+/// planner process, the recordings, the studies and the command line all plan with it.
+pub const HORIZON: usize = 100;

@@ -3,13 +3,17 @@
 //! Every message starts with [`MSG_VERSION`] and carries the [`RoadId`] of the scenario
 //! both processes loaded, a sequence number and a CLOCK_MONOTONIC publish stamp (the
 //! clock is system-wide, so the receiver can compute the one-way latency).
+//!
+//! Plans belong to their requester: a [`VehicleState`] carries the [`RunId`] of the tracker
+//! run that published it, and a [`Trajectory`] the run id and seq of the state it was
+//! planned from, so a tracker recognises its own plans (`docs/ipc-ownership.md`).
 
 use iceoryx2::prelude::ZeroCopySend;
 use planner::ip::Status;
 use planner::model::{ix, NU, NX};
 
 /// Wire version of every message in this module; bump on any layout change.
-pub const MSG_VERSION: u32 = 1;
+pub const MSG_VERSION: u32 = 2;
 /// Horizon intervals N carried by a [`Trajectory`] (the paper's N = 100).
 pub const HORIZON_N: usize = 100;
 
@@ -24,6 +28,29 @@ pub fn fnv1a(bytes: &[u8]) -> RoadId {
         h = h.wrapping_mul(0x0100_0000_01b3);
     }
     h
+}
+
+/// Identifies one run of a state publisher (a tracker process from start to exit); 0 names
+/// no run, and no tracker follows a plan made from a state with run id 0.
+pub type RunId = u64;
+
+/// A fresh, non-zero [`RunId`]: the standard library's randomly keyed SipHash over the
+/// process id, CLOCK_MONOTONIC and the wall clock, so two runs (a tracker and its
+/// restarted successor, or two trackers started at once) draw different ids.
+pub fn new_run_id() -> RunId {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u32(std::process::id());
+    h.write_u64(crate::clock::monotonic_ns());
+    let wall = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    h.write_u128(wall);
+    match h.finish() {
+        0 => 1,
+        id => id,
+    }
 }
 
 /// [`VehicleState::flags`]: the tracker's plan is older than its stale limit.
@@ -46,6 +73,8 @@ pub struct VehicleState {
     pub seq: u64,
     /// Road the state is on.
     pub road_id: RoadId,
+    /// Run of the publishing tracker ([`new_run_id`]; 0: no run).
+    pub run_id: RunId,
     /// CLOCK_MONOTONIC at publish [ns].
     pub stamp_ns: u64,
     /// [r, V, beta, V_wr, dFz, e, dpsi, s, t] (order of `planner::model::ix`); s is the
@@ -68,6 +97,8 @@ pub struct Trajectory {
     pub road_id: RoadId,
     /// CLOCK_MONOTONIC at publish [ns].
     pub stamp_ns: u64,
+    /// `run_id` of the vehicle state this plan starts from (the plan's owner).
+    pub from_run_id: RunId,
     /// `seq` of the vehicle state this plan starts from.
     pub from_state_seq: u64,
     /// `stamp_ns` of that vehicle state.
@@ -228,16 +259,23 @@ fn check_state(x: &[f64; NX]) -> Result<(), Invalid> {
 }
 
 impl VehicleState {
-    /// A state message for `road_id` (flags 0, stamp set at publish).
+    /// A state message for `road_id` with run id 0 (no run: set one with
+    /// [`Self::with_run_id`]); the stamp is set at publish.
     pub fn new(road_id: RoadId, seq: u64, flags: u32, x: [f64; NX]) -> Self {
         Self {
             version: MSG_VERSION,
             flags,
             seq,
             road_id,
+            run_id: 0,
             stamp_ns: 0,
             x,
         }
+    }
+
+    /// The same state, published by run `run_id`.
+    pub fn with_run_id(self, run_id: RunId) -> Self {
+        Self { run_id, ..self }
     }
 
     /// Checks version, road, finiteness and physical ranges; allocates nothing.
@@ -261,6 +299,7 @@ impl Trajectory {
             seq: 0,
             road_id: 0,
             stamp_ns: 0,
+            from_run_id: 0,
             from_state_seq: 0,
             from_state_stamp_ns: 0,
             iterations: 0,
@@ -386,6 +425,7 @@ mod tests {
             seq: 1,
             road_id: 7,
             stamp_ns: 0,
+            from_run_id: 3,
             from_state_seq: 1,
             from_state_stamp_ns: 0,
             iterations: 40,
@@ -454,6 +494,17 @@ mod tests {
             good_plan().validate_for(7, 2.0),
             Err(Invalid::Range { field: "ds", .. })
         ));
+    }
+
+    #[test]
+    fn run_ids_are_non_zero_and_differ_between_draws() {
+        let a = new_run_id();
+        let b = new_run_id();
+        assert_ne!(a, 0);
+        assert_ne!(b, 0);
+        assert_ne!(a, b);
+        assert_eq!(good().run_id, 0);
+        assert_eq!(good().with_run_id(a).run_id, a);
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! The planner process: waits on vehicle-state events, replans from the latest valid state
 //! at a fixed rate over the road ahead, and publishes each trajectory written in place
-//! into a loaned shared-memory sample.
+//! into a loaned shared-memory sample. Each plan names the state it starts from by the
+//! publisher's run id and the state's seq ([`LastPlanned`]), so a restarted tracker's
+//! states are planned even when their seqs repeat its predecessor's.
 //!
 //! Allocation: receiving, validating, sampling the road window, the domain check, shifting
 //! the warm start, writing and sending the sample allocate nothing, and
@@ -19,7 +21,7 @@ use planner::ocp::InitialState;
 use planner::plan::{Planner, ReplanGuess};
 
 use crate::clock::monotonic_ns;
-use crate::msg::{status_code, Invalid, VehicleState, HORIZON_N, MSG_VERSION};
+use crate::msg::{status_code, Invalid, RunId, VehicleState, HORIZON_N, MSG_VERSION};
 use crate::road::{RoadWindow, Scenario};
 use crate::services::{ipc_err, wait_events, IpcError, Services};
 use crate::shutdown::StdinWatch;
@@ -108,6 +110,41 @@ impl Rejected {
     /// Total dropped.
     pub fn total(&self) -> u64 {
         self.version + self.road + self.non_finite + self.range
+    }
+}
+
+/// The state the planner last planned from (or declined to plan from), keyed by the
+/// publisher's run id and the state's seq: seqs start over with every publisher run, so the
+/// seq alone would take a restarted tracker's state for one already planned.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LastPlanned {
+    key: Option<(RunId, u64)>,
+    switches: u64,
+}
+
+impl LastPlanned {
+    /// True when `state` (same run id and seq) was the last one planned from.
+    pub fn is_planned(&self, state: &VehicleState) -> bool {
+        self.key == Some((state.run_id, state.seq))
+    }
+
+    /// True when the last state planned from came from `state`'s publisher run.
+    pub fn same_run(&self, state: &VehicleState) -> bool {
+        self.key.is_some_and(|(run, _)| run == state.run_id)
+    }
+
+    /// Records `state` as planned from.
+    pub fn mark(&mut self, state: &VehicleState) {
+        if self.key.map(|(run, _)| run) != Some(state.run_id) {
+            self.switches += 1;
+        }
+        self.key = Some((state.run_id, state.seq));
+    }
+
+    /// How often the planned state's run id changed (the first run counts once): 2 after a
+    /// tracker restart.
+    pub fn run_switches(&self) -> u64 {
+        self.switches
     }
 }
 
@@ -231,7 +268,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
     let started = Instant::now();
     let mut next_tick = started;
     let mut latest: Option<VehicleState> = None;
-    let mut planned_seq: Option<u64> = None;
+    let mut planned = LastPlanned::default();
     let mut rejected = Rejected::default();
     // Valid states outside the planner's domain (see `InitialDomain`), not planned.
     let mut outside = 0u64;
@@ -287,7 +324,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             continue;
         }
         let Some(state) = latest else { continue };
-        if planned_seq == Some(state.seq) {
+        if planned.is_planned(&state) {
             continue;
         }
         next_tick = (next_tick + period).max(Instant::now());
@@ -325,12 +362,14 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
                 );
             }
             cy.prev_ok = false;
-            planned_seq = Some(state.seq);
+            planned.mark(&state);
             continue;
         }
         let shift = s_track - cy.prev_origin;
+        // A warm start shifts the previous plan, which belongs to the same publisher run only.
         let sound = args.warm_start == "on"
             && cy.prev_ok
+            && planned.same_run(&state)
             && shift >= 0.0
             && shift < 0.5 * HORIZON_N as f64 * ds;
         let mut info = None;
@@ -368,7 +407,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
                         eprintln!("planner: replan failed: {e}");
                         failed += 1;
                         cy.prev_ok = false;
-                        planned_seq = Some(state.seq);
+                        planned.mark(&state);
                         continue;
                     }
                 }
@@ -387,7 +426,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         }
         cy.prev_ok = matches!(info.status, Status::Optimal | Status::Acceptable);
         cy.prev_origin = s_track;
-        planned_seq = Some(state.seq);
+        planned.mark(&state);
         let solve_time = t0.elapsed().as_secs_f64();
 
         // ---- write the plan in place into a loaned sample
@@ -406,6 +445,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             addr_of_mut!((*p).status).write(status_code(info.status));
             addr_of_mut!((*p).seq).write(published);
             addr_of_mut!((*p).road_id).write(sc.id);
+            addr_of_mut!((*p).from_run_id).write(state.run_id);
             addr_of_mut!((*p).from_state_seq).write(state.seq);
             addr_of_mut!((*p).from_state_stamp_ns).write(state.stamp_ns);
             addr_of_mut!((*p).iterations).write(info.iterations.min(u32::MAX as usize) as u32);
@@ -492,6 +532,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         "states_received": states_received,
         "states_rejected": rejected.total(),
         "states_outside_domain": outside,
+        "state_run_switches": planned.run_switches(),
         "states_rejected_by_reason": {
             "version": rejected.version,
             "road": rejected.road,
@@ -505,4 +546,41 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         "rate_hz": args.rate_hz,
         "recording": recording,
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn state(run_id: RunId, seq: u64) -> VehicleState {
+        VehicleState::new(7, seq, 0, [0.0, 15.0, 0.0, 15.0, 0.0, 0.0, 0.0, 3.0, 1.0])
+            .with_run_id(run_id)
+    }
+
+    #[test]
+    fn the_last_planned_state_is_not_planned_again() {
+        let mut last = LastPlanned::default();
+        assert!(!last.is_planned(&state(1, 5)));
+        last.mark(&state(1, 5));
+        assert!(last.is_planned(&state(1, 5)));
+        assert!(!last.is_planned(&state(1, 6)));
+        assert!(last.same_run(&state(1, 6)));
+        assert_eq!(last.run_switches(), 1);
+    }
+
+    #[test]
+    fn a_second_publisher_reusing_seq_values_gets_planned() {
+        let mut last = LastPlanned::default();
+        for seq in 1..=3 {
+            last.mark(&state(1, seq));
+        }
+        // A restarted tracker (new run id) publishes seq 3 again: a new state.
+        assert!(!last.is_planned(&state(2, 3)));
+        assert!(!last.same_run(&state(2, 3)));
+        last.mark(&state(2, 3));
+        assert!(last.is_planned(&state(2, 3)));
+        // Its predecessor's seq 3 is now a different state as well.
+        assert!(!last.is_planned(&state(1, 3)));
+        assert_eq!(last.run_switches(), 2);
+    }
 }

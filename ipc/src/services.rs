@@ -1,6 +1,11 @@
 //! The iceoryx2 services of the closed loop, opened with the same QoS by every process:
 //! `<prefix>/vehicle_state` and `<prefix>/trajectory` (publish-subscribe, each paired with
 //! an event service of the same name so receivers block on a listener, not a busy loop).
+//!
+//! Both services keep their last sample as history for a late subscriber. On the trajectory
+//! service that sample was planned for whoever published the state it starts from (for a
+//! restarted tracker, its predecessor), so receivers check a plan's `from_run_id` and
+//! `from_state_seq` before following it (`tracker::Ownership`).
 
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;

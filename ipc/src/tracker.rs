@@ -1,10 +1,110 @@
 //! Trajectory tracking: the planned controls, looked up by arc length, as feed-forward,
-//! plus feedback on lateral error, heading and yaw rate (steering) and speed (torque).
+//! plus feedback on lateral error, heading and yaw rate (steering) and speed (torque);
+//! and which plans a tracker may follow at all ([`Ownership`]).
 
 use planner::model::{iu, ix, VehicleParams, NU, NX};
 
-use crate::msg::{Trajectory, HORIZON_N};
+use crate::msg::{RunId, Trajectory, HORIZON_N};
 use crate::road::ClosedRoad;
+
+/// Why a valid plan is not the tracker's own (it is counted and not followed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Foreign {
+    /// Planned from another run's state (a predecessor's plan, or another publisher's).
+    #[error("planned for run {got:#018x}, not this run {own:#018x}")]
+    RunId {
+        /// `from_run_id` of the plan.
+        got: RunId,
+        /// This tracker's run id.
+        own: RunId,
+    },
+    /// Planned from a state seq this run has not published (0, or ahead of the last one).
+    #[error("planned from state seq {got}, not one of this run's states 1..={last}")]
+    StateSeq {
+        /// `from_state_seq` of the plan.
+        got: u64,
+        /// Seq of this run's last published state (0: none yet).
+        last: u64,
+    },
+}
+
+/// Plans belong to their requester: a tracker run follows a plan only when it was planned
+/// from one of the run's own published states, i.e. the plan's `from_run_id` is the run's
+/// id and its `from_state_seq` lies in 1..=the last seq the run published (seqs count up
+/// from 1). Anything else (a predecessor's last plan handed over by the service history, a
+/// plan for another publisher, a plan claiming a state not yet sent) is [`Foreign`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ownership {
+    run_id: RunId,
+    last_seq: u64,
+}
+
+impl Ownership {
+    /// A run with id `run_id` (non-zero) that has published no state yet.
+    pub fn new(run_id: RunId) -> Self {
+        Self {
+            run_id,
+            last_seq: 0,
+        }
+    }
+
+    /// This run's id.
+    pub fn run_id(&self) -> RunId {
+        self.run_id
+    }
+
+    /// Seq of the last published state (0: none yet).
+    pub fn last_seq(&self) -> u64 {
+        self.last_seq
+    }
+
+    /// The seq of the next state to publish, recorded as published.
+    pub fn next_seq(&mut self) -> u64 {
+        self.last_seq += 1;
+        self.last_seq
+    }
+
+    /// `Ok` when `plan` was planned from one of this run's published states.
+    pub fn check(&self, plan: &Trajectory) -> Result<(), Foreign> {
+        if plan.from_run_id != self.run_id || self.run_id == 0 {
+            return Err(Foreign::RunId {
+                got: plan.from_run_id,
+                own: self.run_id,
+            });
+        }
+        if plan.from_state_seq == 0 || plan.from_state_seq > self.last_seq {
+            return Err(Foreign::StateSeq {
+                got: plan.from_state_seq,
+                last: self.last_seq,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Counters of plans that were valid but not the tracker's own, by reason.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ForeignPlans {
+    /// Planned for another run.
+    pub run_id: u64,
+    /// Planned from a state seq this run has not published.
+    pub state_seq: u64,
+}
+
+impl ForeignPlans {
+    /// Counts one foreign plan.
+    pub fn count(&mut self, f: &Foreign) {
+        match f {
+            Foreign::RunId { .. } => self.run_id += 1,
+            Foreign::StateSeq { .. } => self.state_seq += 1,
+        }
+    }
+
+    /// Total counted.
+    pub fn total(&self) -> u64 {
+        self.run_id + self.state_seq
+    }
+}
 
 /// Feedback gains.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -149,6 +249,93 @@ pub fn brake_to_stop(
     // rear wheel locks in a curve, the rear loses its side force and the car spins.
     let slip = g.k_w * (x[ix::VWR] - x[ix::V]);
     [delta, -(1.0 - front) * torque - slip, -front * torque]
+}
+
+#[cfg(test)]
+mod ownership_tests {
+    use super::*;
+
+    fn plan_from(run_id: RunId, seq: u64) -> Trajectory {
+        Trajectory {
+            from_run_id: run_id,
+            from_state_seq: seq,
+            ..Trajectory::zeroed()
+        }
+    }
+
+    /// A run that published states 1..=3.
+    fn run_with_three_states() -> Ownership {
+        let mut o = Ownership::new(0xabc);
+        for want in 1..=3 {
+            assert_eq!(o.next_seq(), want);
+        }
+        o
+    }
+
+    #[test]
+    fn a_plan_from_an_own_published_state_is_accepted() {
+        let o = run_with_three_states();
+        for seq in 1..=3 {
+            assert_eq!(o.check(&plan_from(0xabc, seq)), Ok(()));
+        }
+    }
+
+    #[test]
+    fn a_plan_for_another_run_is_rejected_and_counted() {
+        let o = run_with_three_states();
+        let mut foreign = ForeignPlans::default();
+        // A predecessor's plan from a seq this run has published too.
+        for plan in [plan_from(0xdef, 2), plan_from(0, 2)] {
+            let e = o.check(&plan).unwrap_err();
+            assert!(matches!(e, Foreign::RunId { own: 0xabc, .. }), "{e}");
+            foreign.count(&e);
+        }
+        assert_eq!(
+            foreign,
+            ForeignPlans {
+                run_id: 2,
+                state_seq: 0
+            }
+        );
+        assert_eq!(foreign.total(), 2);
+    }
+
+    #[test]
+    fn a_plan_from_a_state_ahead_of_the_last_published_one_is_rejected() {
+        let mut o = run_with_three_states();
+        let ahead = plan_from(0xabc, 4);
+        let e = o.check(&ahead).unwrap_err();
+        assert_eq!(e, Foreign::StateSeq { got: 4, last: 3 });
+        let mut foreign = ForeignPlans::default();
+        foreign.count(&e);
+        assert_eq!(foreign.state_seq, 1);
+        assert_eq!(
+            o.check(&plan_from(0xabc, 0)),
+            Err(Foreign::StateSeq { got: 0, last: 3 })
+        );
+        // Once state 4 is published, the plan from it is the run's own.
+        o.next_seq();
+        assert_eq!(o.check(&ahead), Ok(()));
+    }
+
+    #[test]
+    fn a_run_that_published_nothing_owns_no_plan() {
+        let o = Ownership::new(0xabc);
+        assert_eq!(
+            o.check(&plan_from(0xabc, 1)),
+            Err(Foreign::StateSeq { got: 1, last: 0 })
+        );
+    }
+
+    #[test]
+    fn run_id_zero_owns_no_plan() {
+        let mut o = Ownership::new(0);
+        o.next_seq();
+        assert!(matches!(
+            o.check(&plan_from(0, 1)),
+            Err(Foreign::RunId { .. })
+        ));
+    }
 }
 
 #[cfg(test)]

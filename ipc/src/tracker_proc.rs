@@ -1,6 +1,9 @@
 //! The tracker process: simulates the plant in real time (RK4 at a fixed step), tracks the
 //! latest valid trajectory (feed-forward + feedback), publishes the vehicle state at a
 //! fixed rate, flags a stale plan and brakes to a stop, and reports tracking errors.
+//!
+//! Each run draws its own run id, stamps it on every state it publishes and follows only
+//! plans made from its own states ([`Ownership`]); other valid plans are counted as foreign.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -8,13 +11,13 @@ use std::time::{Duration, Instant};
 use planner::model::ix;
 
 use crate::clock::monotonic_ns;
-use crate::msg::{Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED};
+use crate::msg::{new_run_id, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED};
 use crate::plant::Plant;
 use crate::road::Scenario;
 use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
-use crate::tracker::{brake_to_stop, reference, track, Gains};
+use crate::tracker::{brake_to_stop, reference, track, ForeignPlans, Gains, Ownership};
 
 /// Command-line options of `tracker_proc`.
 #[derive(clap::Args, Debug, Clone)]
@@ -193,12 +196,13 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     let mut have_plan = false;
     let mut plans = 0u64;
     let mut plans_rejected = 0u64;
+    let mut foreign = ForeignPlans::default();
     let mut plans_not_converged = 0u64;
     let mut last_plan_at = Instant::now();
     let mut ipc_lat = Latency::new();
     let mut plan_lat = Latency::new();
     let mut stats = Track::default();
-    let mut seq = 0u64;
+    let mut own = Ownership::new(new_run_id());
     let mut ever_stale = false;
     let mut stale = false;
     let mut stale_at_s = f64::NAN;
@@ -209,8 +213,8 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     let mut sim_start: Option<Instant> = None;
     let mut next_pub = started;
     eprintln!(
-        "tracker: up (prefix {}, road {:#018x}, plant dt {plant_dt} s, control {} s, publish {publish_dt} s, distance {distance:.1} m)",
-        args.service_prefix, sc.id, args.control_dt_s
+        "tracker: up (prefix {}, road {:#018x}, run id {:#018x}, plant dt {plant_dt} s, control {} s, publish {publish_dt} s, distance {distance:.1} m)",
+        args.service_prefix, sc.id, own.run_id(), args.control_dt_s
     );
     let end_reason;
     loop {
@@ -231,43 +235,51 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         while let Some(sample) = sub.receive().map_err(ipc_err("receive trajectory"))? {
             let m: &Trajectory = sample.payload();
             let now_ns = monotonic_ns();
-            match m.validate_for(sc.id, sc.ds()) {
-                Ok(()) => {
-                    ipc_lat.record_ns(now_ns.saturating_sub(m.stamp_ns));
-                    plan_lat.record_ns(now_ns.saturating_sub(m.from_state_stamp_ns));
-                    plans += 1;
-                    let converged = matches!(m.status, 0 | 1);
-                    // A non-converged best iterate replaces the active plan only when that
-                    // plan no longer covers the car (or there is none yet).
-                    let covered =
-                        have_plan && reference(&plan, plant.x[ix::S] - plan.s_origin).is_some();
-                    if !converged {
-                        plans_not_converged += 1;
-                        if covered && !stale {
-                            continue;
-                        }
-                    }
-                    *plan = *m;
-                    have_plan = true;
-                    last_plan_at = Instant::now();
-                    if stale && !plant.stopped {
-                        eprintln!("tracker: fresh plan {} after stale period; resuming", m.seq);
-                        stale = false;
-                    }
-                    if sim_start.is_none() {
-                        sim_start = Some(Instant::now());
-                        eprintln!(
-                            "tracker: first plan {} ({} iterations); running",
-                            m.seq, m.iterations
-                        );
-                    }
+            if let Err(e) = m.validate_for(sc.id, sc.ds()) {
+                plans_rejected += 1;
+                if plans_rejected <= 10 {
+                    eprintln!("tracker: dropped trajectory seq {}: {e}", m.seq);
                 }
-                Err(e) => {
-                    plans_rejected += 1;
-                    if plans_rejected <= 10 {
-                        eprintln!("tracker: dropped trajectory seq {}: {e}", m.seq);
-                    }
+                continue;
+            }
+            // A valid plan made from another run's state is never followed.
+            if let Err(f) = own.check(m) {
+                foreign.count(&f);
+                let n = foreign.total();
+                if n <= 10 || n.is_multiple_of(1000) {
+                    eprintln!(
+                        "tracker: ignored foreign trajectory seq {} ({n} so far): {f}",
+                        m.seq
+                    );
                 }
+                continue;
+            }
+            ipc_lat.record_ns(now_ns.saturating_sub(m.stamp_ns));
+            plan_lat.record_ns(now_ns.saturating_sub(m.from_state_stamp_ns));
+            plans += 1;
+            let converged = matches!(m.status, 0 | 1);
+            // A non-converged best iterate replaces the active plan only when that
+            // plan no longer covers the car (or there is none yet).
+            let covered = have_plan && reference(&plan, plant.x[ix::S] - plan.s_origin).is_some();
+            if !converged {
+                plans_not_converged += 1;
+                if covered && !stale {
+                    continue;
+                }
+            }
+            *plan = *m;
+            have_plan = true;
+            last_plan_at = Instant::now();
+            if stale && !plant.stopped {
+                eprintln!("tracker: fresh plan {} after stale period; resuming", m.seq);
+                stale = false;
+            }
+            if sim_start.is_none() {
+                sim_start = Some(Instant::now());
+                eprintln!(
+                    "tracker: first plan {} ({} iterations); running",
+                    m.seq, m.iterations
+                );
             }
         }
         let now = Instant::now();
@@ -340,11 +352,11 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
                 eprintln!("tracker: stopped at s = {:.1} m", plant.x[ix::S]);
             }
         }
-        seq += 1;
+        let seq = own.next_seq();
         publish_state(
             &publisher,
             &notifier,
-            VehicleState::new(sc.id, seq, flags, plant.x),
+            VehicleState::new(sc.id, seq, flags, plant.x).with_run_id(own.run_id()),
         )?;
         next_pub += Duration::from_secs_f64(publish_dt / args.time_scale);
         if next_pub < now {
@@ -390,6 +402,12 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         "sim_time_s": plant.x[ix::T],
         "plans_received": plans,
         "plans_rejected": plans_rejected,
+        "plans_foreign": foreign.total(),
+        "plans_foreign_by_reason": {
+            "run_id": foreign.run_id,
+            "state_seq": foreign.state_seq,
+        },
+        "run_id": format!("{:#018x}", own.run_id()),
         "plans_not_converged": plans_not_converged,
         "max_lateral_error_m": stats.max_e,
         "rms_lateral_error_m": rms,

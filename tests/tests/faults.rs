@@ -1,4 +1,4 @@
-//! End-to-end fault tests of the iceoryx2 closed loop (issue 4): the processes are spawned
+//! End-to-end fault tests of the iceoryx2 closed loop: the processes are spawned
 //! directly (`planner_proc`, `tracker_proc`, and the `inject_state` test helper) from the
 //! test's target profile folder; build them first (`cargo build -p ipc --bins`, same
 //! profile; `cargo test --workspace` does).
@@ -203,8 +203,20 @@ fn tracker(prefix: &str, extra: &[&str]) -> Proc {
 
 const START: Duration = Duration::from_secs(60);
 
+/// The run id a tracker printed in its "up" line (`run id 0x...`).
+fn run_id_in_log(log: &str) -> String {
+    log.lines()
+        .find_map(|l| {
+            let rest = l.split("run id ").nth(1)?;
+            Some(rest.split([',', ')']).next()?.to_string())
+        })
+        .unwrap_or_else(|| panic!("no run id in the log:\n{log}"))
+}
+
 /// (a) SIGKILL the tracker mid-drive and start a new one: the planner keeps running and
-/// serves the new tracker, which drives its distance on fresh plans.
+/// serves the new tracker, which drives its distance on fresh plans. The new tracker runs
+/// under a new run id and never follows its predecessor's last plan (which the trajectory
+/// service's history hands it): that plan is counted as foreign.
 #[test]
 fn tracker_restart_is_served_by_the_running_planner() {
     let _serial = serial();
@@ -216,6 +228,7 @@ fn tracker_restart_is_served_by_the_running_planner() {
     t1.wait_line("first plan", START);
     std::thread::sleep(Duration::from_millis(1000));
     t1.kill();
+    let t1_run = run_id_in_log(&t1.log());
 
     // The planner must survive the dead peer.
     std::thread::sleep(Duration::from_millis(500));
@@ -226,6 +239,7 @@ fn tracker_restart_is_served_by_the_running_planner() {
     );
 
     let t2 = tracker(&p, &["--distance-m", "40", "--duration-s", "30"]);
+    let t2_log = t2.log.clone();
     let s2 = t2.finish(Duration::from_secs(120));
     assert_eq!(s2["end_reason"], "distance reached", "{s2}");
     assert!(
@@ -235,9 +249,31 @@ fn tracker_restart_is_served_by_the_running_planner() {
     assert!(s2["plans_received"].as_u64().unwrap_or(0) >= 3, "{s2}");
     assert_eq!(s2["lane_kept"], true, "{s2}");
     assert_eq!(s2["stale"], false, "{s2}");
+    // The predecessor's plan reached the new tracker and was refused as another run's.
+    let t2_run = s2["run_id"].as_str().unwrap_or_default().to_string();
+    assert!(
+        t2_run.starts_with("0x") && t2_run != t1_run,
+        "{t1_run} {s2}"
+    );
+    assert!(
+        s2["plans_foreign_by_reason"]["run_id"]
+            .as_u64()
+            .unwrap_or(0)
+            >= 1,
+        "{s2}"
+    );
+    assert_eq!(s2["plans_foreign_by_reason"]["state_seq"], 0, "{s2}");
+    let refused = format!("planned for run {t1_run}");
+    let t2_log = t2_log.lock().map(|l| l.clone()).unwrap_or_default();
+    assert!(
+        t2_log.contains(&refused),
+        "the new tracker never refused its predecessor's plan; stderr:\n{t2_log}"
+    );
 
     plan.close_stdin();
     let sp = plan.finish(Duration::from_secs(30));
+    // Planned for the first tracker, then for the second.
+    assert_eq!(sp["state_run_switches"], 2, "{sp}");
     let t2_plans = s2["plans_received"].as_u64().unwrap_or(0);
     assert!(
         sp["plans_published"].as_u64().unwrap_or(0) > t2_plans,
@@ -351,4 +387,44 @@ fn options_that_would_hang_or_panic_are_refused_by_name() {
         assert_eq!(out.status.code(), Some(2), "{bin} {args:?}: {err}");
         assert!(err.contains(option), "{bin} {args:?}: {err}");
     }
+}
+
+/// A second publisher run reusing the first one's seq values (as a restarted tracker does)
+/// is planned, not taken for a state already planned; each run receives the other's plan
+/// too (the service history hands the first run's plan to the second) and counts it as
+/// foreign, never as its own.
+#[test]
+fn a_second_publisher_reusing_seq_values_is_planned() {
+    let _serial = serial();
+    let p = prefix("reuse");
+    let mut plan = planner(&p);
+    plan.wait_line("planner: up", START);
+    let inject = || {
+        let mut inj = command("inject_state");
+        inj.args(["--service-prefix", &p])
+            .args(["--send", "good"])
+            .args(["--gap-s", "0.2", "--wait-plan-s", "60"]);
+        Proc::spawn("inject_state", inj).finish(Duration::from_secs(120))
+    };
+    let first = inject();
+    let second = inject();
+
+    plan.close_stdin();
+    let sp = plan.finish(Duration::from_secs(30));
+    assert_ne!(first["run_id"], second["run_id"], "{first}\n{second}");
+    assert_eq!(first["sent"][0]["seq"], second["sent"][0]["seq"]);
+    for inj in [&first, &second] {
+        assert_eq!(
+            inj["plans_from_state_seq"],
+            serde_json::json!([1000]),
+            "{inj}"
+        );
+    }
+    assert!(
+        second["plans_foreign"].as_u64().unwrap_or(0) >= 1,
+        "{second}"
+    );
+    assert_eq!(sp["plans_published"], 2, "{sp}");
+    assert_eq!(sp["state_run_switches"], 2, "{sp}");
+    assert_eq!(sp["states_rejected"], 0, "{sp}");
 }

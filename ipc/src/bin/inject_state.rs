@@ -7,15 +7,18 @@
 //! a valid message heading 2 rad off the road, outside the planner's domain; `good`: a
 //! valid cruise state). Between entries it waits `--gap-s` (long enough for the planner to have
 //! solved, had it accepted the state). After the last entry it waits up to `--wait-plan-s`
-//! for a trajectory planned from a good state. Prints one JSON line: the seq of each sent
-//! state and the `from_state_seq` of every trajectory received. Exit 2 on bad input, 1 on
-//! IPC errors or timeouts.
+//! for a trajectory planned from a good state. Like a tracker, it publishes under its own
+//! run id (seqs 1000, 1001, ... in every run, so a second run reuses the first one's seqs)
+//! and owns only the plans made from its states. Prints one JSON line: its run id, the seq
+//! of each sent state, the `from_state_seq` of every trajectory received for this run, and
+//! how many trajectories for other runs arrived. Exit 2 on bad input, 1 on IPC errors or
+//! timeouts.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
-use ipc::msg::{VehicleState, MSG_VERSION};
+use ipc::msg::{new_run_id, VehicleState, MSG_VERSION};
 use ipc::plant::Plant;
 use ipc::road::Scenario;
 use ipc::services::{publish_state, IpcError, Services};
@@ -76,10 +79,11 @@ fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
     let sc = Scenario::load(&cli.scenario, &cli.vehicle, &cli.solver)
         .map_err(|e| Error::Setup(e.to_string()))?;
     let good = Plant::cruise(sc.spec.vehicle, 15.0).x;
+    let run_id = new_run_id();
     let mut msgs = Vec::with_capacity(cli.send.len());
     for (i, kind) in cli.send.iter().enumerate() {
         let seq = 1000 + i as u64;
-        let mut m = VehicleState::new(sc.id, seq, 0, good);
+        let mut m = VehicleState::new(sc.id, seq, 0, good).with_run_id(run_id);
         match kind.as_str() {
             "good" => {}
             "nan" => m.x[ix::E] = f64::NAN,
@@ -112,12 +116,17 @@ fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
         std::thread::sleep(Duration::from_millis(20));
     }
     let mut from_seqs: Vec<u64> = Vec::new();
-    let drain = |from: &mut Vec<u64>| -> Result<(), Error> {
+    let mut foreign = 0u64;
+    let mut drain = |from: &mut Vec<u64>| -> Result<(), Error> {
         while let Some(s) = sub
             .receive()
             .map_err(ipc::services::ipc_err("receive trajectory"))?
         {
-            from.push(s.payload().from_state_seq);
+            if s.payload().from_run_id == run_id {
+                from.push(s.payload().from_state_seq);
+            } else {
+                foreign += 1;
+            }
         }
         Ok(())
     };
@@ -145,8 +154,10 @@ fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
     }
     drain(&mut from_seqs)?;
     Ok(serde_json::json!({
+        "run_id": format!("{run_id:#018x}"),
         "sent": sent,
         "plans_from_state_seq": from_seqs,
+        "plans_foreign": foreign,
     }))
 }
 

@@ -11,7 +11,9 @@ use std::time::{Duration, Instant};
 use planner::model::ix;
 
 use crate::clock::monotonic_ns;
-use crate::msg::{new_run_id, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED};
+use crate::msg::{
+    new_run_id, RoadId, RunId, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED,
+};
 use crate::plant::Plant;
 use crate::road::Scenario;
 use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services};
@@ -96,8 +98,8 @@ struct Track {
     e_hi: f64,
 }
 
-/// Runs the tracker process until done; returns its summary as JSON.
-pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
+/// Refuses options that would hang or panic the process, naming the first bad one.
+fn check_args(args: &TrackerArgs) -> Result<(), TrackerProcError> {
     // plant_dt >= 1e-6 s keeps the substeps per control step (control_dt <= 0.01) at most
     // 10^4; a finite first-plan timeout keeps the wait for the first plan bounded. The
     // first failed check names its option.
@@ -157,11 +159,72 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
             "must be finite and > 3 m/s",
         ),
     ];
-    if let Some((name, value, _, expected)) = checks.iter().find(|c| !c.2) {
-        return Err(TrackerProcError::Setup(format!(
+    match checks.iter().find(|c| !c.2) {
+        Some((name, value, _, expected)) => Err(TrackerProcError::Setup(format!(
             "{name} = {value}: {expected}"
-        )));
+        ))),
+        None => Ok(()),
     }
+}
+
+/// Receives plans: drops invalid ones, refuses foreign ones ([`Ownership`]) and counts
+/// both; times the run's own plans.
+struct Inbox {
+    own: Ownership,
+    /// Own valid plans.
+    plans: u64,
+    /// Invalid plans.
+    rejected: u64,
+    foreign: ForeignPlans,
+    ipc_lat: Latency,
+    plan_lat: Latency,
+}
+
+impl Inbox {
+    fn new(run_id: RunId) -> Self {
+        Self {
+            own: Ownership::new(run_id),
+            plans: 0,
+            rejected: 0,
+            foreign: ForeignPlans::default(),
+            ipc_lat: Latency::new(),
+            plan_lat: Latency::new(),
+        }
+    }
+
+    /// True when `m` is a valid plan of this run (received at `now_ns`); logs the first
+    /// invalid and foreign ones. Allocates nothing unless it logs.
+    fn accept(&mut self, m: &Trajectory, road: RoadId, ds: f64, now_ns: u64) -> bool {
+        if let Err(e) = m.validate_for(road, ds) {
+            self.rejected += 1;
+            if self.rejected <= 10 {
+                eprintln!("tracker: dropped trajectory seq {}: {e}", m.seq);
+            }
+            return false;
+        }
+        // A valid plan made from another run's state is never followed.
+        if let Err(f) = self.own.check(m) {
+            self.foreign.count(&f);
+            let n = self.foreign.total();
+            if n <= 10 || n.is_multiple_of(1000) {
+                eprintln!(
+                    "tracker: ignored foreign trajectory seq {} ({n} so far): {f}",
+                    m.seq
+                );
+            }
+            return false;
+        }
+        self.ipc_lat.record_ns(now_ns.saturating_sub(m.stamp_ns));
+        self.plan_lat
+            .record_ns(now_ns.saturating_sub(m.from_state_stamp_ns));
+        self.plans += 1;
+        true
+    }
+}
+
+/// Runs the tracker process until done; returns its summary as JSON.
+pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
+    check_args(args)?;
     let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
         .map_err(|e| TrackerProcError::Setup(e.to_string()))?;
     let road = &sc.road;
@@ -194,15 +257,10 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         ..Trajectory::zeroed()
     });
     let mut have_plan = false;
-    let mut plans = 0u64;
-    let mut plans_rejected = 0u64;
-    let mut foreign = ForeignPlans::default();
+    let mut inbox = Inbox::new(new_run_id());
     let mut plans_not_converged = 0u64;
     let mut last_plan_at = Instant::now();
-    let mut ipc_lat = Latency::new();
-    let mut plan_lat = Latency::new();
     let mut stats = Track::default();
-    let mut own = Ownership::new(new_run_id());
     let mut ever_stale = false;
     let mut stale = false;
     let mut stale_at_s = f64::NAN;
@@ -214,7 +272,10 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     let mut next_pub = started;
     eprintln!(
         "tracker: up (prefix {}, road {:#018x}, run id {:#018x}, plant dt {plant_dt} s, control {} s, publish {publish_dt} s, distance {distance:.1} m)",
-        args.service_prefix, sc.id, own.run_id(), args.control_dt_s
+        args.service_prefix,
+        sc.id,
+        inbox.own.run_id(),
+        args.control_dt_s
     );
     let end_reason;
     loop {
@@ -234,29 +295,9 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         }
         while let Some(sample) = sub.receive().map_err(ipc_err("receive trajectory"))? {
             let m: &Trajectory = sample.payload();
-            let now_ns = monotonic_ns();
-            if let Err(e) = m.validate_for(sc.id, sc.ds()) {
-                plans_rejected += 1;
-                if plans_rejected <= 10 {
-                    eprintln!("tracker: dropped trajectory seq {}: {e}", m.seq);
-                }
+            if !inbox.accept(m, sc.id, sc.ds(), monotonic_ns()) {
                 continue;
             }
-            // A valid plan made from another run's state is never followed.
-            if let Err(f) = own.check(m) {
-                foreign.count(&f);
-                let n = foreign.total();
-                if n <= 10 || n.is_multiple_of(1000) {
-                    eprintln!(
-                        "tracker: ignored foreign trajectory seq {} ({n} so far): {f}",
-                        m.seq
-                    );
-                }
-                continue;
-            }
-            ipc_lat.record_ns(now_ns.saturating_sub(m.stamp_ns));
-            plan_lat.record_ns(now_ns.saturating_sub(m.from_state_stamp_ns));
-            plans += 1;
             let converged = matches!(m.status, 0 | 1);
             // A non-converged best iterate replaces the active plan only when that
             // plan no longer covers the car (or there is none yet).
@@ -352,11 +393,11 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
                 eprintln!("tracker: stopped at s = {:.1} m", plant.x[ix::S]);
             }
         }
-        let seq = own.next_seq();
+        let seq = inbox.own.next_seq();
         publish_state(
             &publisher,
             &notifier,
-            VehicleState::new(sc.id, seq, flags, plant.x).with_run_id(own.run_id()),
+            VehicleState::new(sc.id, seq, flags, plant.x).with_run_id(inbox.own.run_id()),
         )?;
         next_pub += Duration::from_secs_f64(publish_dt / args.time_scale);
         if next_pub < now {
@@ -384,9 +425,11 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     };
     let lane_kept = stats.e_lo >= road.e_min() && stats.e_hi <= road.e_max();
     eprintln!(
-        "tracker: {end_reason}: {:.1} m in {:.2} s, {plans} plans, max |e - e_plan| {:.3} m, rms {:.3} m, lane [{:.2}, {:.2}] m{}",
+        "tracker: {end_reason}: {:.1} m in {:.2} s, {} plans ({} foreign ignored), max |e - e_plan| {:.3} m, rms {:.3} m, lane [{:.2}, {:.2}] m{}",
         plant.x[ix::S],
         plant.x[ix::T],
+        inbox.plans,
+        inbox.foreign.total(),
         stats.max_e,
         rms,
         stats.e_lo,
@@ -400,14 +443,14 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         "laps_or_distance_m": plant.x[ix::S],
         "laps": plant.x[ix::S] / road.lap(),
         "sim_time_s": plant.x[ix::T],
-        "plans_received": plans,
-        "plans_rejected": plans_rejected,
-        "plans_foreign": foreign.total(),
+        "plans_received": inbox.plans,
+        "plans_rejected": inbox.rejected,
+        "plans_foreign": inbox.foreign.total(),
         "plans_foreign_by_reason": {
-            "run_id": foreign.run_id,
-            "state_seq": foreign.state_seq,
+            "run_id": inbox.foreign.run_id,
+            "state_seq": inbox.foreign.state_seq,
         },
-        "run_id": format!("{:#018x}", own.run_id()),
+        "run_id": format!("{:#018x}", inbox.own.run_id()),
         "plans_not_converged": plans_not_converged,
         "max_lateral_error_m": stats.max_e,
         "rms_lateral_error_m": rms,
@@ -421,10 +464,57 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         "stale_at_sim_s": if stale_at_s.is_finite() { serde_json::json!(stale_at_s) } else { serde_json::Value::Null },
         "stopped": plant.stopped,
         "final_speed_mps": plant.x[ix::V],
-        "plan_latency_ms_p50": us(&plan_lat, 0.5) * 1e-3,
-        "plan_latency_ms_p99": us(&plan_lat, 0.99) * 1e-3,
-        "ipc_latency_us_p50": us(&ipc_lat, 0.5),
-        "ipc_latency_us_p99": us(&ipc_lat, 0.99),
-        "ipc_latency_samples": ipc_lat.count(),
+        "plan_latency_ms_p50": us(&inbox.plan_lat, 0.5) * 1e-3,
+        "plan_latency_ms_p99": us(&inbox.plan_lat, 0.99) * 1e-3,
+        "ipc_latency_us_p50": us(&inbox.ipc_lat, 0.5),
+        "ipc_latency_us_p99": us(&inbox.ipc_lat, 0.99),
+        "ipc_latency_samples": inbox.ipc_lat.count(),
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg::{status_code, MSG_VERSION};
+    use planner::ip::Status;
+
+    /// A valid plan on road 7 (grid 2.5 m) made from state `seq` of run `run_id`.
+    fn plan(run_id: RunId, seq: u64) -> Box<Trajectory> {
+        let x = [0.0, 15.0, 0.0, 15.0, 0.0, 0.0, 0.0, 3.0, 1.0];
+        let mut p = Box::new(Trajectory::zeroed());
+        p.version = MSG_VERSION;
+        p.status = status_code(Status::Optimal);
+        p.road_id = 7;
+        p.ds = 2.5;
+        p.x_from = x;
+        p.x = [x; crate::msg::HORIZON_N + 1];
+        p.from_run_id = run_id;
+        p.from_state_seq = seq;
+        p
+    }
+
+    #[test]
+    fn the_inbox_takes_own_plans_and_counts_foreign_and_invalid_ones() {
+        let mut inbox = Inbox::new(0xabc);
+        inbox.own.next_seq();
+        inbox.own.next_seq();
+        // Own plans from states 1 and 2.
+        assert!(inbox.accept(&plan(0xabc, 1), 7, 2.5, 10));
+        assert!(inbox.accept(&plan(0xabc, 2), 7, 2.5, 10));
+        // A predecessor's plan, and an own-run plan from a state not yet published.
+        assert!(!inbox.accept(&plan(0xdef, 2), 7, 2.5, 10));
+        assert!(!inbox.accept(&plan(0xabc, 3), 7, 2.5, 10));
+        // An invalid plan is rejected, not foreign.
+        assert!(!inbox.accept(&plan(0xabc, 1), 8, 2.5, 10));
+        assert_eq!(inbox.plans, 2);
+        assert_eq!(inbox.rejected, 1);
+        assert_eq!(
+            inbox.foreign,
+            ForeignPlans {
+                run_id: 1,
+                state_seq: 1
+            }
+        );
+        assert_eq!(inbox.ipc_lat.count(), 2);
+    }
 }

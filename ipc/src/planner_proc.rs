@@ -7,17 +7,19 @@
 //! Allocation: receiving, validating, sampling the road window, the domain check, shifting
 //! the warm start, writing and sending the sample allocate nothing, and
 //! [`planner::plan::Planner::replan`] updates the problem in place and solves without
-//! allocating (`planner/tests/solve_alloc.rs`). Only logging a refused or failed state and
-//! recording (`--record`, which copies the input for the writer thread) allocate.
+//! allocating (`planner/tests/solve_alloc.rs`). Recording (`--record`) copies each plan
+//! into a preallocated slot of the recorder's pool ([`CycleRecorder`]) and allocates
+//! nothing either (`ipc/tests/hot_path_alloc.rs`); only logging a refused or failed state
+//! allocates.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use plan_record::{now_ns, Record, Recorder};
+use plan_record::{now_ns, PlanOutput, PlanRecord, RecordError, RecordStats, Recorder};
 use planner::guess::GuessKind;
-use planner::ip::Status;
+use planner::ip::{Settings, SolveInfo, Status};
 use planner::model::{ix, NU, NX};
-use planner::ocp::InitialState;
+use planner::ocp::{InitialState, OcpSpec};
 use planner::plan::{Planner, ReplanGuess};
 
 use crate::clock::monotonic_ns;
@@ -64,9 +66,11 @@ pub struct PlannerArgs {
     /// Stop after this many seconds (0: run until stopped).
     #[arg(long, default_value_t = 0.0)]
     pub max_runtime_s: f64,
-    /// Record every equilibrium-started plan's input and output to this MCAP file (built and
-    /// queued after the plan is published, outside the timed solve; `replay run` re-solves
-    /// them). Warm-started plans are counted, not recorded (a recording cannot hold the guess).
+    /// Record every equilibrium-started plan's input and output to this MCAP file (copied
+    /// into a preallocated slot after the plan is published, outside the timed solve; one
+    /// MCAP chunk per plan, so a killed planner loses at most the plan being written;
+    /// `replay run` re-solves them). Warm-started plans are counted, not recorded (a
+    /// recording cannot hold the guess).
     #[arg(long)]
     pub record: Option<PathBuf>,
 }
@@ -113,6 +117,7 @@ impl Rejected {
     }
 }
 
+<<<<<<< HEAD
 /// The state the planner last planned from (or declined to plan from), keyed by the
 /// publisher's run id and the state's seq: seqs start over with every publisher run, so the
 /// seq alone would take a restarted tracker's state for one already planned.
@@ -145,6 +150,80 @@ impl LastPlanned {
     /// tracker restart.
     pub fn run_switches(&self) -> u64 {
         self.switches
+=======
+/// The `--record` part of the planner cycle: each equilibrium-started plan is copied into a
+/// preallocated slot of a pooled [`Recorder`] and queued for its writer thread, which
+/// closes an MCAP chunk per plan (allocates nothing and never blocks; a plan that finds no
+/// free slot or a full queue is dropped and counted).
+#[derive(Debug)]
+pub struct CycleRecorder {
+    rec: Recorder,
+    /// Warm-started plans (a recording cannot hold the guess).
+    not_recorded: u64,
+}
+
+impl CycleRecorder {
+    /// Preallocated plans: 12.8 s of plans at 10 Hz can wait for a slow disk.
+    pub const SLOTS: usize = 128;
+
+    /// Creates the file; every slot starts as the record of `spec` solved with `settings`
+    /// from the equilibrium guess, with room for a road of the planner's horizon.
+    pub fn create(path: &Path, spec: &OcpSpec, settings: &Settings) -> Result<Self, RecordError> {
+        let mut input = planner::record::plan_input(spec, settings, GuessKind::Equilibrium, 0, 0);
+        for v in [&mut input.kappa, &mut input.e_min, &mut input.e_max] {
+            v.reserve(HORIZON_N + 1);
+        }
+        let template = PlanRecord {
+            input,
+            output: PlanOutput::with_capacity(HORIZON_N),
+        };
+        Ok(Self {
+            rec: Recorder::create_pooled(path, &template, Self::SLOTS)?,
+            not_recorded: 0,
+        })
+    }
+
+    /// Records one equilibrium-started plan: the road window and start state it solved
+    /// from and what it produced. False when it was dropped.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        seq: u64,
+        stamp_in: u64,
+        road: &RoadWindow,
+        x0: [f64; NX],
+        info: &SolveInfo,
+        states: &[[f64; NX]],
+        controls: &[[f64; NU]],
+    ) -> bool {
+        let Some(mut slot) = self.rec.slot() else {
+            return false;
+        };
+        planner::record::update_input(
+            &mut slot.input,
+            seq,
+            stamp_in,
+            [&road.kappa, &road.e_min, &road.e_max],
+            InitialState::Fixed(x0),
+        );
+        planner::record::write_output(&mut slot.output, seq, now_ns(), info, states, controls);
+        self.rec.record_plan(slot)
+    }
+
+    /// Counts a warm-started plan, which is not recorded.
+    pub fn skip_warm_started(&mut self) {
+        self.not_recorded += 1;
+    }
+
+    /// Warm-started plans not recorded.
+    pub fn not_recorded(&self) -> u64 {
+        self.not_recorded
+    }
+
+    /// Drains the queue and closes the file.
+    pub fn finish(self) -> Result<RecordStats, RecordError> {
+        self.rec.finish()
+>>>>>>> wt-record
     }
 }
 
@@ -232,16 +311,14 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
     settings.max_time_s = args.max_solve_s;
     let ds = sc.ds();
     let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
-    let recorder =
-        match &args.record {
-            // Room for ~7 minutes at 10 Hz; beyond that, records are dropped and counted.
-            Some(path) => Some(Recorder::create(path, 8192).map_err(|e| {
+    let mut recorder = match &args.record {
+        Some(path) => Some(
+            CycleRecorder::create(path, &sc.spec, &settings).map_err(|e| {
                 PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
-            })?),
-            None => None,
-        };
-    let mut rec_spec = sc.spec.clone();
-    let mut not_recorded = 0u64;
+            })?,
+        ),
+        None => None,
+    };
     let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
         .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
     let mut cy = Cycle {
@@ -471,35 +548,14 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         published += 1;
         cycle_lat.record_ns(t0.elapsed().as_nanos() as u64);
 
-        // ---- record (after publishing; allocates)
-        if let Some(rec) = &recorder {
+        // ---- record (after publishing; copies into a preallocated slot)
+        if let Some(rec) = &mut recorder {
             if warm_started {
-                not_recorded += 1;
+                rec.skip_warm_started();
             } else {
-                rec_spec.kappa.clear();
-                rec_spec.kappa.extend_from_slice(&cy.road.kappa);
-                rec_spec.e_min.clear();
-                rec_spec.e_min.extend_from_slice(&cy.road.e_min);
-                rec_spec.e_max.clear();
-                rec_spec.e_max.extend_from_slice(&cy.road.e_max);
-                rec_spec.initial = InitialState::Fixed(x0);
-                let seq = published - 1;
-                let input = planner::record::plan_input(
-                    &rec_spec,
-                    &settings,
-                    GuessKind::Equilibrium,
-                    seq,
-                    stamp_in,
-                );
-                rec.record(Record::Input(Box::new(input)));
-                let output = planner::record::plan_output(
-                    seq,
-                    now_ns(),
-                    &info,
-                    cy.planner.states(),
-                    cy.planner.controls(),
-                );
-                rec.record(Record::Output(Box::new(output)));
+                let xs = cy.planner.states();
+                let us = cy.planner.controls();
+                rec.record(published - 1, stamp_in, &cy.road, x0, &info, xs, us);
             }
         }
     }
@@ -509,6 +565,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
     );
     let recording = match (recorder, &args.record) {
         (Some(rec), Some(path)) => {
+            let not_recorded = rec.not_recorded();
             let stats = rec.finish().map_err(|e| {
                 PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
             })?;

@@ -105,3 +105,70 @@ fn the_ipc_and_road_part_of_a_planner_cycle_allocates_nothing() {
     });
     assert!(seen.count_total > 0);
 }
+
+/// The `--record` part of the cycle copies the road window, the start state and the plan
+/// into a preallocated slot and queues it: nothing is allocated on the planner's thread
+/// (the writer thread allocates as it encodes, which the counter, per thread, leaves out),
+/// and what reaches the file equals the records built the allocating way.
+#[test]
+fn recording_a_plan_in_the_cycle_allocates_nothing() {
+    use ipc::planner_proc::CycleRecorder;
+    use planner::guess::GuessKind;
+    use planner::ocp::InitialState;
+    use planner::plan::Planner;
+    use planner::record::{plan_input, plan_output};
+
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let sc = Scenario::load(
+        &root.join("scenarios/oval.toml"),
+        &root.join("vehicles/lc500.toml"),
+        &root.join("solver.toml"),
+    )
+    .unwrap();
+    let mut planner = Planner::<HORIZON_N>::new(sc.spec.clone(), sc.settings).unwrap();
+    let info = planner.solve(GuessKind::Equilibrium);
+    let (xs, us) = (planner.states(), planner.controls());
+    let dir = std::env::temp_dir().join(format!("trajopt_alloc_record_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("cycle.mcap");
+    let rec = CycleRecorder::create(&file, &sc.spec, &sc.settings).unwrap();
+    let ds = sc.spec.ds();
+    let mut window = RoadWindow::default();
+    let mut x0 = xs[0];
+    let cycle = |seq: u64, window: &mut RoadWindow, x0: &mut [f64; NX]| {
+        sc.road.window(seq as f64, ds, 0.0, 10.0, window);
+        x0[ix::E] = 1e-3 * seq as f64;
+        let queued = rec.record(seq, 1_000 + seq, window, *x0, &info, xs, us);
+        // One plan per millisecond at most, so the writer keeps up and nothing is dropped.
+        std::thread::sleep(Duration::from_millis(1));
+        queued
+    };
+    for seq in 0..5 {
+        assert!(cycle(seq, &mut window, &mut x0));
+    }
+    let mut queued = 0;
+    let measured = allocation_counter::measure(|| {
+        for seq in 5..105 {
+            queued += u64::from(cycle(seq, &mut window, &mut x0));
+        }
+    });
+    assert_eq!(measured.count_total, 0, "{measured:?}");
+    let stats = rec.finish().unwrap();
+    assert_eq!(stats.inputs, 5 + queued);
+    assert_eq!(stats.dropped, 2 * (100 - queued));
+    assert!(queued >= 50, "{queued} of 100 plans queued");
+
+    let back = plan_record::Recording::read(&file).unwrap();
+    assert!(back.complete());
+    let (input, output) = (back.inputs.last().unwrap(), back.outputs.last().unwrap());
+    let mut spec = sc.spec.clone();
+    spec.kappa = window.kappa.to_vec();
+    spec.e_min = window.e_min.to_vec();
+    spec.e_max = window.e_max.to_vec();
+    spec.initial = InitialState::Fixed(x0);
+    let fresh = plan_input(&spec, &sc.settings, GuessKind::Equilibrium, 104, 1_104);
+    assert_eq!(input, &fresh);
+    let fresh = plan_output(104, output.stamp_ns, &info, xs, us);
+    assert_eq!(output, &fresh);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -276,25 +276,68 @@ pub fn plan_output(
     states: &[[f64; NX]],
     controls: &[[f64; NU]],
 ) -> PlanOutput {
+    let mut out = PlanOutput::with_capacity(controls.len());
+    write_output(&mut out, seq, stamp_ns, info, states, controls);
+    out
+}
+
+/// Writes what a solve produced into `out` in place: allocates nothing when `out` has the
+/// capacity (as [`PlanOutput::with_capacity`] gives it).
+pub fn write_output(
+    out: &mut PlanOutput,
+    seq: u64,
+    stamp_ns: u64,
+    info: &SolveInfo,
+    states: &[[f64; NX]],
+    controls: &[[f64; NU]],
+) {
     let sat = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
-    PlanOutput {
-        seq,
-        stamp_ns,
-        status: info.status.name().into(),
-        iterations: sat(info.iterations),
-        objective: info.objective,
-        max_violation: info.max_violation,
-        t_final_s: states.last().map_or(0.0, |x| x[crate::model::ix::T]),
-        factorizations: sat(info.factorizations),
-        evaluations: sat(info.evaluations),
-        time_evaluation_s: info.times.evaluation,
-        time_factorization_s: info.times.factorization,
-        time_solve_s: info.times.solve,
-        time_line_search_s: info.times.line_search,
-        time_total_s: info.times.total,
-        states: states.to_vec(),
-        controls: controls.to_vec(),
-    }
+    out.seq = seq;
+    out.stamp_ns = stamp_ns;
+    out.status.clear();
+    out.status.push_str(info.status.name());
+    out.iterations = sat(info.iterations);
+    out.objective = info.objective;
+    out.max_violation = info.max_violation;
+    out.t_final_s = states.last().map_or(0.0, |x| x[crate::model::ix::T]);
+    out.factorizations = sat(info.factorizations);
+    out.evaluations = sat(info.evaluations);
+    out.time_evaluation_s = info.times.evaluation;
+    out.time_factorization_s = info.times.factorization;
+    out.time_solve_s = info.times.solve;
+    out.time_line_search_s = info.times.line_search;
+    out.time_total_s = info.times.total;
+    out.states.clear();
+    out.states.extend_from_slice(states);
+    out.controls.clear();
+    out.controls.extend_from_slice(controls);
+}
+
+/// Rewrites the fields of a recorded input that change from one replanning cycle to the
+/// next (seq, stamp, the road ahead, the initial state) in place, leaving the problem's
+/// constants (name, guess, horizon, bounds, vehicle, settings) as [`plan_input`] wrote
+/// them: allocates nothing when the road vectors have the capacity. The result equals
+/// [`plan_input`] of the spec with that road and initial state.
+pub fn update_input(
+    input: &mut PlanInput,
+    seq: u64,
+    stamp_ns: u64,
+    road: [&[f64]; 3],
+    initial: InitialState,
+) {
+    let [kappa, e_min, e_max] = road;
+    input.seq = seq;
+    input.stamp_ns = stamp_ns;
+    input.kappa.clear();
+    input.kappa.extend_from_slice(kappa);
+    input.e_min.clear();
+    input.e_min.extend_from_slice(e_min);
+    input.e_max.clear();
+    input.e_max.extend_from_slice(e_max);
+    (input.initial_state_fixed, input.x0) = match initial {
+        InitialState::Fixed(x0) => (true, x0),
+        InitialState::Free => (false, [0.0; NX]),
+    };
 }
 
 /// Rebuilds the problem, settings and guess a recorded input describes, bit for bit.

@@ -1,12 +1,12 @@
 //! `replay info`: what a recording holds.
 
-use plan_record::{ChannelInfo, Recording};
+use plan_record::{ChannelInfo, Recording, Recovery};
 use serde::Serialize;
 
 /// Summary of a recording.
 #[derive(Debug, Clone, Serialize)]
 pub struct Info {
-    /// File size [bytes].
+    /// File size \[bytes\].
     pub bytes: u64,
     /// Channels with message counts.
     pub channels: Vec<ChannelSummary>,
@@ -14,16 +14,42 @@ pub struct Info {
     pub inputs: usize,
     /// Planner outputs.
     pub outputs: usize,
-    /// Time between first and last message [s].
+    /// Time between first and last message \[s\].
     pub duration_s: f64,
-    /// First message log time [ns].
+    /// First message log time \[ns\].
     pub start_ns: Option<u64>,
-    /// Last message log time [ns].
+    /// Last message log time \[ns\].
     pub end_ns: Option<u64>,
     /// Records the recorder dropped (None: no recorder metadata).
     pub dropped: Option<u64>,
     /// Scenarios of the inputs, in order of first appearance.
     pub scenarios: Vec<String>,
+    /// What was recovered of a file that was not closed cleanly (None: closed cleanly).
+    pub recovered: Option<Recovered>,
+}
+
+/// What a read recovered of a file that was not closed cleanly (a killed recorder).
+#[derive(Debug, Clone, Serialize)]
+pub struct Recovered {
+    /// Always false: the file lacks its end (summary, footer, or part of a record).
+    pub complete: bool,
+    /// Bytes of complete records read.
+    pub kept_bytes: u64,
+    /// Bytes dropped at the end (the incomplete record).
+    pub dropped_bytes: u64,
+    /// Where the file ends.
+    pub ends: String,
+}
+
+impl From<&Recovery> for Recovered {
+    fn from(r: &Recovery) -> Self {
+        Self {
+            complete: false,
+            kept_bytes: r.kept_bytes,
+            dropped_bytes: r.dropped_bytes,
+            ends: r.ends.clone(),
+        }
+    }
 }
 
 /// One channel.
@@ -69,6 +95,7 @@ pub fn info(rec: &Recording) -> Info {
         end_ns: rec.end_ns,
         dropped: rec.dropped(),
         scenarios,
+        recovered: rec.recovery.as_ref().map(Recovered::from),
     }
 }
 
@@ -89,6 +116,13 @@ impl std::fmt::Display for Info {
                 f,
                 "  channel {} {}: {} messages, schema {}, encoding {}",
                 c.id, c.topic, c.messages, c.schema, c.encoding
+            )?;
+        }
+        if let Some(r) = &self.recovered {
+            writeln!(
+                f,
+                "  not closed cleanly: ends {}; {} bytes recovered, {} dropped",
+                r.ends, r.kept_bytes, r.dropped_bytes
             )?;
         }
         if !self.scenarios.is_empty() {

@@ -31,7 +31,7 @@ pub struct OvalOptions {
     pub solver: PathBuf,
     /// Number of plans.
     pub plans: usize,
-    /// Replanning rate [Hz].
+    /// Replanning rate \[Hz\].
     pub rate_hz: f64,
     /// Output file.
     pub out: PathBuf,
@@ -72,7 +72,7 @@ pub enum OvalError {
 pub struct OvalSummary {
     /// Recorder counts.
     pub stats: RecordStats,
-    /// Solve latency per plan while recording [ms].
+    /// Solve latency per plan while recording \[ms\].
     pub latency_ms: Vec<f64>,
     /// Status per plan.
     pub statuses: Vec<&'static str>,

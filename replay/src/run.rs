@@ -9,13 +9,14 @@ use planner::plan::Planner;
 use planner::record::{plan_output, problem_from};
 use serde::Serialize;
 
+use crate::info::Recovered;
 use crate::stats::{latency, Latency, StatsError};
 use crate::N;
 
 /// How to replay.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunOptions {
-    /// Deadline per solve [ms] (10 Hz: 100 ms).
+    /// Deadline per solve \[ms\] (10 Hz: 100 ms).
     pub budget_ms: f64,
     /// Core to pin the solver thread to; None: the last core.
     pub core: Option<usize>,
@@ -90,15 +91,15 @@ pub struct PlanResult {
     pub seq: u64,
     /// Scenario name.
     pub scenario: String,
-    /// Wall-clock latency of the replayed solve [ms].
+    /// Wall-clock latency of the replayed solve \[ms\].
     pub latency_ms: f64,
-    /// Total solve time when it was recorded [ms] (None: no output recorded).
+    /// Total solve time when it was recorded \[ms\] (None: no output recorded).
     pub recorded_ms: Option<f64>,
     /// Status of the replayed solve.
     pub status: String,
     /// Iterations of the replayed solve.
     pub iterations: u32,
-    /// Evaluation, factorization, solve, line-search time [ms].
+    /// Evaluation, factorization, solve, line-search time \[ms\].
     pub phases_ms: [f64; 4],
     /// Bit-identical to the recorded output (None: no output recorded).
     pub identical: Option<bool>,
@@ -108,7 +109,7 @@ pub struct PlanResult {
     pub missed: bool,
 }
 
-/// Mean and max of one solver phase [ms].
+/// Mean and max of one solver phase \[ms\].
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Phase {
     /// Phase name.
@@ -128,7 +129,7 @@ pub struct RunReport {
     pub plans: usize,
     /// Core the solver thread was pinned to (None: pinning failed).
     pub pinned_core: Option<usize>,
-    /// Deadline [ms].
+    /// Deadline \[ms\].
     pub budget_ms: f64,
     /// Solves over the deadline.
     pub deadline_misses: usize,
@@ -152,6 +153,8 @@ pub struct RunReport {
     pub phases: Vec<Phase>,
     /// Every plan.
     pub per_plan: Vec<PlanResult>,
+    /// What was recovered of a file that was not closed cleanly (None: closed cleanly).
+    pub recovered: Option<Recovered>,
 }
 
 /// Replays every input of a recording on a pinned solver thread.
@@ -201,7 +204,9 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
         .map_err(|_| ReplayError::Thread("solver thread panicked".into()))
     })??;
     let (pinned_core, per_plan) = per_plan;
-    report(per_plan, pinned_core, opts.budget_ms)
+    let mut report = report(per_plan, pinned_core, opts.budget_ms)?;
+    report.recovered = rec.recovery.as_ref().map(Recovered::from);
+    Ok(report)
 }
 
 fn replay_all(
@@ -321,6 +326,7 @@ fn report(
         statuses,
         phases,
         per_plan,
+        recovered: None,
     })
 }
 

@@ -1,5 +1,6 @@
 //! Damaged and foreign files: a clear error and exit code 2, never a panic; and a
-//! property test that drives the reader with a few hundred mutated files.
+//! property test that drives the reader with a few hundred mutated files. (Files cut
+//! short are recovered: `crash_recovery.rs`.)
 
 mod common;
 
@@ -55,13 +56,17 @@ fn empty_file() {
 }
 
 #[test]
-fn truncated_file() {
+fn truncated_file_is_recovered_not_refused() {
     let b = common::valid_bytes();
-    for cut in [8, 100, b.len() / 2, b.len() - 9, b.len() - 1] {
-        let e = Recording::from_bytes(&b[..cut]).unwrap_err();
-        assert!(matches!(e, ReadError::Mcap { .. }), "cut {cut}: {e}");
+    let full = Recording::from_bytes(b).unwrap();
+    assert!(full.complete());
+    for cut in [1, 8, 100, 141, b.len() / 2, b.len() - 9, b.len() - 1] {
+        let r = Recording::from_bytes(&b[..cut]).unwrap();
+        let rec = r.recovery.as_ref().expect("a cut file is not complete");
+        assert_eq!(rec.kept_bytes + rec.dropped_bytes, cut as u64, "cut {cut}");
+        assert_eq!(r.inputs[..], full.inputs[..r.inputs.len()], "cut {cut}");
+        assert_eq!(r.outputs[..], full.outputs[..r.outputs.len()], "cut {cut}");
     }
-    check_cli("truncated", &b[..b.len() / 2], "invalid MCAP");
 }
 
 #[test]
@@ -178,7 +183,7 @@ impl Rng {
 fn mutated_files_give_ok_or_err_never_a_panic() {
     let valid = common::valid_bytes();
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-    let (mut ok, mut err) = (0, 0);
+    let (mut ok, mut err, mut recovered) = (0, 0, 0);
     for case in 0..400 {
         let mut b = valid.to_vec();
         match case % 5 {
@@ -210,7 +215,13 @@ fn mutated_files_give_ok_or_err_never_a_panic() {
         }
         let result = std::panic::catch_unwind(|| Recording::from_bytes(&b));
         match result {
-            Ok(Ok(_)) => ok += 1,
+            Ok(Ok(r)) if r.complete() => ok += 1,
+            // Read as cut short: detected, and what was read is a prefix of the original.
+            Ok(Ok(r)) => {
+                let full = Recording::from_bytes(valid).unwrap();
+                assert_eq!(r.inputs[..], full.inputs[..r.inputs.len()], "case {case}");
+                recovered += 1;
+            }
             Ok(Err(e)) => {
                 assert!(!e.to_string().is_empty());
                 err += 1;
@@ -218,11 +229,14 @@ fn mutated_files_give_ok_or_err_never_a_panic() {
             Err(_) => panic!("case {case}: the reader panicked on a mutated file"),
         }
     }
-    eprintln!("{err} of 400 mutated files rejected, {ok} read fine");
+    eprintln!(
+        "of 400 mutated files, {err} rejected, {recovered} read as cut short, {ok} read fine"
+    );
     // CRCs cover every byte that matters, so nearly every mutation must be detected.
     assert!(
-        err > 350,
-        "only {err} of 400 mutations detected ({ok} read fine)"
+        err + recovered > 350,
+        "only {} of 400 mutations detected ({ok} read fine)",
+        err + recovered
     );
 }
 

@@ -193,3 +193,43 @@ fn duplicate_seqs_are_refused_not_compared_arbitrarily() {
     let e = run(&dup, RunOptions::default()).unwrap_err().to_string();
     assert!(e.contains("two planner inputs"), "{e}");
 }
+
+#[test]
+fn pooled_recorder_lends_its_slots_and_counts_a_plan_without_one_as_two_drops() {
+    use plan_record::PlanRecord;
+    let d = common::temp_dir("pool");
+    let f = d.join("pool.mcap");
+    let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    let template = PlanRecord {
+        input: rec.inputs[0].clone(),
+        output: rec.outputs[0].clone(),
+    };
+    let r = Recorder::create_pooled(&f, &template, 2).unwrap();
+    let a = r.slot().unwrap();
+    let mut b = r.slot().unwrap();
+    assert!(r.slot().is_none(), "two slots lent");
+    assert_eq!(r.dropped(), 2);
+    b.input.seq = 7;
+    b.output.seq = 7;
+    assert!(r.record_plan(a));
+    assert!(r.record_plan(b));
+    // The writer thread returns the slots once written.
+    let t0 = std::time::Instant::now();
+    let c = loop {
+        if let Some(c) = r.slot() {
+            break c;
+        }
+        assert!(t0.elapsed().as_secs() < 10, "slot never returned");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    drop(c);
+    let stats = r.finish().unwrap();
+    assert_eq!((stats.inputs, stats.outputs), (2, 2));
+    assert_eq!(stats.dropped % 2, 0);
+    let back = Recording::read(&f).unwrap();
+    assert!(back.complete());
+    assert_eq!(back.inputs[0], rec.inputs[0]);
+    assert_eq!((back.inputs[1].seq, back.outputs[1].seq), (7, 7));
+    assert_eq!(back.dropped(), Some(stats.dropped));
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -6,16 +6,25 @@
 //! and every f64 is stored as its raw IEEE-754 bits, so replay reproduces inputs exactly.
 //! This crate does not depend on the planner: any process (the `trajopt` CLI, the IPC
 //! planner) can record, and `planner::record` converts between these structs and its types.
+//!
+//! Crash safety: the file is written one closed chunk at a time (after every plan, or
+//! every [`CHUNK_PERIOD`]), so a writer killed mid-recording loses at most its open chunk,
+//! and the reader recovers every complete chunk of a file cut short ([`Recovery`]).
 
 pub mod cdr;
 mod msg;
 mod reader;
 mod recorder;
 pub mod schema;
+mod tail;
+mod writer;
 
 pub use msg::{
-    config_hash, first_difference, PlanInput, PlanOutput, CONTROL_LEN, CONTROL_NAMES,
+    config_hash, first_difference, PlanInput, PlanOutput, PlanRecord, CONTROL_LEN, CONTROL_NAMES,
     SETTINGS_FIELDS, SETTINGS_LEN, STATE_LEN, STATE_NAMES, VEHICLE_FIELDS, VEHICLE_LEN,
 };
-pub use reader::{ChannelInfo, ReadError, Recording, MAX_FILE_BYTES};
-pub use recorder::{now_ns, Record, RecordError, RecordStats, Recorder, METADATA_NAME};
+pub use reader::{ChannelInfo, ReadError, Recording, Recovery, MAX_FILE_BYTES};
+pub use recorder::{
+    now_ns, write_recording, Record, RecordError, RecordStats, Recorder, METADATA_NAME,
+};
+pub use writer::{CHUNK_BYTES, CHUNK_PERIOD, SYNC_PERIOD};

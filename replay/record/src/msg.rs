@@ -88,7 +88,7 @@ pub const SETTINGS_FIELDS: [&str; SETTINGS_LEN] = [
 pub struct PlanInput {
     /// Planning cycle number; the matching [`PlanOutput`] has the same value.
     pub seq: u64,
-    /// When the cycle started [ns since the Unix epoch]; the MCAP log time.
+    /// When the cycle started \[ns since the Unix epoch\]; the MCAP log time.
     pub stamp_ns: u64,
     /// Scenario or segment name.
     pub scenario: String,
@@ -96,13 +96,13 @@ pub struct PlanInput {
     pub guess: String,
     /// Number of intervals N.
     pub n_intervals: u32,
-    /// Horizon length [m].
+    /// Horizon length \[m\].
     pub length_m: f64,
-    /// Speed lower bound [m/s].
+    /// Speed lower bound \[m/s\].
     pub v_min_mps: f64,
-    /// Speed upper bound [m/s].
+    /// Speed upper bound \[m/s\].
     pub v_max_mps: f64,
-    /// Weight of the objective's steering-slew term [1/s] (0: pure minimum time).
+    /// Weight of the objective's steering-slew term \[1/s\] (0: pure minimum time).
     pub steering_slew_weight: f64,
     /// Tire saturation constraints on.
     pub enforce_tire_saturation: bool,
@@ -110,11 +110,11 @@ pub struct PlanInput {
     pub initial_state_fixed: bool,
     /// Initial vehicle state (zeros when free).
     pub x0: [f64; STATE_LEN],
-    /// Reference curvature at every node [1/m] (N + 1 values).
+    /// Reference curvature at every node \[1/m\] (N + 1 values).
     pub kappa: Vec<f64>,
-    /// Right lateral bound at every node [m].
+    /// Right lateral bound at every node \[m\].
     pub e_min: Vec<f64>,
-    /// Left lateral bound at every node [m].
+    /// Left lateral bound at every node \[m\].
     pub e_max: Vec<f64>,
     /// Vehicle parameters in [`VEHICLE_FIELDS`] order.
     pub vehicle: [f64; VEHICLE_LEN],
@@ -131,7 +131,7 @@ pub struct PlanInput {
 pub struct PlanOutput {
     /// Planning cycle number of the input.
     pub seq: u64,
-    /// When the solve ended [ns since the Unix epoch]; the MCAP log time.
+    /// When the solve ended \[ns since the Unix epoch\]; the MCAP log time.
     pub stamp_ns: u64,
     /// Solver status name (`optimal`, `acceptable`, ...).
     pub status: String,
@@ -141,26 +141,101 @@ pub struct PlanOutput {
     pub objective: f64,
     /// Max constraint violation at the returned point.
     pub max_violation: f64,
-    /// Final time t_N [s].
+    /// Final time t_N \[s\].
     pub t_final_s: f64,
     /// KKT factorizations.
     pub factorizations: u32,
     /// Function evaluations.
     pub evaluations: u32,
-    /// Evaluation time [s].
+    /// Evaluation time \[s\].
     pub time_evaluation_s: f64,
-    /// Factorization time [s].
+    /// Factorization time \[s\].
     pub time_factorization_s: f64,
-    /// Back-substitution time [s].
+    /// Back-substitution time \[s\].
     pub time_solve_s: f64,
-    /// Line-search time [s].
+    /// Line-search time \[s\].
     pub time_line_search_s: f64,
-    /// Total solve time [s].
+    /// Total solve time \[s\].
     pub time_total_s: f64,
     /// States x_0..x_N.
     pub states: Vec<[f64; STATE_LEN]>,
     /// Controls u_0..u_{N-1}.
     pub controls: Vec<[f64; CONTROL_LEN]>,
+}
+
+impl PlanOutput {
+    /// An empty output with room for a horizon of `n_intervals` and any status name, so
+    /// filling it in place allocates nothing.
+    pub fn with_capacity(n_intervals: usize) -> Self {
+        Self {
+            seq: 0,
+            stamp_ns: 0,
+            status: String::with_capacity(STATUS_CAPACITY),
+            iterations: 0,
+            objective: 0.0,
+            max_violation: 0.0,
+            t_final_s: 0.0,
+            factorizations: 0,
+            evaluations: 0,
+            time_evaluation_s: 0.0,
+            time_factorization_s: 0.0,
+            time_solve_s: 0.0,
+            time_line_search_s: 0.0,
+            time_total_s: 0.0,
+            states: Vec::with_capacity(n_intervals + 1),
+            controls: Vec::with_capacity(n_intervals),
+        }
+    }
+}
+
+/// Bytes reserved for a status name in [`PlanOutput::with_capacity`].
+const STATUS_CAPACITY: usize = 32;
+
+/// One plan, input and output, in storage a pooled [`crate::Recorder`] reuses: the
+/// recording thread fills a free one in place and hands it to the writer thread, which
+/// returns it once written.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanRecord {
+    /// What the solve acted on.
+    pub input: PlanInput,
+    /// What it produced.
+    pub output: PlanOutput,
+}
+
+impl PlanRecord {
+    /// A copy whose vectors and strings have the capacities of these (a derived `clone`
+    /// gives them only their lengths), so filling it in place allocates no more than
+    /// filling this one.
+    pub(crate) fn clone_with_capacity(&self) -> Self {
+        fn vec<T: Clone>(v: &[T], capacity: usize) -> Vec<T> {
+            let mut c = Vec::with_capacity(capacity);
+            c.extend_from_slice(v);
+            c
+        }
+        fn string(s: &String) -> String {
+            let mut c = String::with_capacity(s.capacity());
+            c.push_str(s);
+            c
+        }
+        let (i, o) = (&self.input, &self.output);
+        Self {
+            input: PlanInput {
+                scenario: string(&i.scenario),
+                guess: string(&i.guess),
+                kappa: vec(&i.kappa, i.kappa.capacity()),
+                e_min: vec(&i.e_min, i.e_min.capacity()),
+                e_max: vec(&i.e_max, i.e_max.capacity()),
+                settings_json: string(&i.settings_json),
+                ..i.clone()
+            },
+            output: PlanOutput {
+                status: string(&o.status),
+                states: vec(&o.states, o.states.capacity()),
+                controls: vec(&o.controls, o.controls.capacity()),
+                ..o.clone()
+            },
+        }
+    }
 }
 
 /// FNV-1a 64 over the raw bits of the vehicle parameters and the settings.

@@ -1,6 +1,10 @@
 //! [`Recording`]: reads a whole MCAP file into memory and validates everything (magic,
 //! record lengths, chunk / data-section / summary CRCs, schemas of the planner channels,
 //! every CDR payload). Any damage is an error naming where it is; nothing panics.
+//!
+//! A file cut short (a writer killed or a machine that lost power) is read up to its last
+//! complete record ([`crate::tail`] finds the cut): every complete chunk is recovered, CRCs
+//! checked, and [`Recording::recovery`] says how many bytes were dropped.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -12,8 +16,9 @@ use crate::cdr::{decode_input, decode_output, DecodeError};
 use crate::msg::{PlanInput, PlanOutput};
 use crate::recorder::METADATA_NAME;
 use crate::schema::*;
+use crate::tail::{scan, Tail};
 
-/// Largest recording [`Recording::read`] loads [bytes].
+/// Largest recording [`Recording::read`] loads \[bytes\].
 pub const MAX_FILE_BYTES: u64 = 1 << 30;
 
 /// Cap on reader events (records plus read requests), so a hostile file cannot loop it.
@@ -48,6 +53,16 @@ pub enum ReadError {
         size: usize,
         /// The parser's error.
         source: mcap::McapError,
+    },
+    /// The file ends inside a record that cannot be the start of a valid one.
+    #[error("damaged MCAP (record at byte {offset} of {size}): {problem}")]
+    Damaged {
+        /// Offset of the record.
+        offset: usize,
+        /// File size.
+        size: usize,
+        /// What is wrong.
+        problem: String,
     },
     /// Two records define the same schema or channel id differently.
     #[error("{what} id {id} is defined twice with different contents")]
@@ -123,14 +138,37 @@ pub struct Recording {
     pub outputs: Vec<PlanOutput>,
     /// Every channel, by id.
     pub channels: Vec<ChannelInfo>,
-    /// Earliest message log time [ns].
+    /// Earliest message log time \[ns\].
     pub start_ns: Option<u64>,
-    /// Latest message log time [ns].
+    /// Latest message log time \[ns\].
     pub end_ns: Option<u64>,
     /// The recorder's closing metadata (counts and drops), if present.
     pub recorder: BTreeMap<String, String>,
-    /// File size [bytes].
+    /// File size \[bytes\].
     pub bytes: u64,
+    /// What was recovered of a file that was not closed cleanly (None: closed cleanly).
+    pub recovery: Option<Recovery>,
+}
+
+/// What a read kept of a file that was not closed cleanly (a crashed or killed writer).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Recovery {
+    /// Bytes read: the magic, the header and every complete record before the cut.
+    pub kept_bytes: u64,
+    /// Bytes after them, dropped: the incomplete record the file ends inside.
+    pub dropped_bytes: u64,
+    /// Where the file ends, for people.
+    pub ends: String,
+}
+
+impl std::fmt::Display for Recovery {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "not closed cleanly: the file ends {}; recovered every complete chunk ({} bytes), dropped {} bytes",
+            self.ends, self.kept_bytes, self.dropped_bytes
+        )
+    }
 }
 
 #[derive(PartialEq)]
@@ -141,8 +179,132 @@ struct SchemaDef {
     text: Vec<u8>,
 }
 
+/// Decodes records into a [`Recording`] as the MCAP reader emits them.
+#[derive(Default)]
+struct Decoder {
+    rec: Recording,
+    schemas: BTreeMap<u16, SchemaDef>,
+    channels: BTreeMap<u16, ChannelInfo>,
+    messages: u64,
+}
+
+impl Decoder {
+    fn record(&mut self, record: McapRecord<'_>) -> Result<(), ReadError> {
+        match record {
+            McapRecord::Schema { header, data } => {
+                let def = SchemaDef {
+                    name: header.name,
+                    encoding: header.encoding,
+                    text: data.into_owned(),
+                };
+                match self.schemas.get(&header.id) {
+                    Some(old) if *old != def => {
+                        return Err(ReadError::Conflict {
+                            what: "schema",
+                            id: header.id,
+                        })
+                    }
+                    Some(_) => {}
+                    None => {
+                        self.schemas.insert(header.id, def);
+                    }
+                }
+            }
+            McapRecord::Channel(c) => self.channel(c)?,
+            McapRecord::Message { header, data } => self.message(&header, &data)?,
+            McapRecord::Metadata(m) if m.name == METADATA_NAME => {
+                self.rec.recorder = m.metadata;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn channel(&mut self, c: mcap::records::Channel) -> Result<(), ReadError> {
+        let (schema, schema_encoding, text) = if c.schema_id == 0 {
+            (String::new(), String::new(), &[][..])
+        } else {
+            let s = self
+                .schemas
+                .get(&c.schema_id)
+                .ok_or_else(|| ReadError::UnknownSchema {
+                    topic: c.topic.clone(),
+                    schema_id: c.schema_id,
+                })?;
+            (s.name.clone(), s.encoding.clone(), &s.text[..])
+        };
+        let info = ChannelInfo {
+            id: c.id,
+            topic: c.topic,
+            schema,
+            schema_encoding,
+            message_encoding: c.message_encoding,
+            messages: 0,
+        };
+        check_planner_channel(&info, text)?;
+        match self.channels.get(&c.id) {
+            Some(old)
+                if old.topic != info.topic
+                    || old.schema != info.schema
+                    || old.message_encoding != info.message_encoding =>
+            {
+                return Err(ReadError::Conflict {
+                    what: "channel",
+                    id: c.id,
+                })
+            }
+            Some(_) => {}
+            None => {
+                self.channels.insert(c.id, info);
+            }
+        }
+        Ok(())
+    }
+
+    fn message(
+        &mut self,
+        header: &mcap::records::MessageHeader,
+        payload: &[u8],
+    ) -> Result<(), ReadError> {
+        let ch = self
+            .channels
+            .get_mut(&header.channel_id)
+            .ok_or(ReadError::UnknownChannel {
+                index: self.messages,
+                channel_id: header.channel_id,
+            })?;
+        let index = ch.messages;
+        ch.messages += 1;
+        self.messages += 1;
+        let rec = &mut self.rec;
+        let t = header.log_time;
+        rec.start_ns = Some(rec.start_ns.map_or(t, |s| s.min(t)));
+        rec.end_ns = Some(rec.end_ns.map_or(t, |e| e.max(t)));
+        let decode_err = |topic, source| ReadError::Decode {
+            topic,
+            index,
+            log_time: t,
+            source,
+        };
+        if ch.topic == INPUT_TOPIC {
+            let m = decode_input(payload).map_err(|e| decode_err(INPUT_TOPIC, e))?;
+            rec.inputs.push(m);
+        } else if ch.topic == OUTPUT_TOPIC {
+            let m = decode_output(payload).map_err(|e| decode_err(OUTPUT_TOPIC, e))?;
+            rec.outputs.push(m);
+        }
+        Ok(())
+    }
+
+    fn done(mut self, recovery: Option<Recovery>) -> Recording {
+        self.rec.channels = self.channels.into_values().collect();
+        self.rec.recovery = recovery;
+        self.rec
+    }
+}
+
 impl Recording {
-    /// Reads and validates a file.
+    /// Reads and validates a file, recovering a cut one (see [`Recording::from_bytes`]).
     pub fn read(path: &Path) -> Result<Self, ReadError> {
         let io = |source| ReadError::Io {
             path: path.to_path_buf(),
@@ -156,7 +318,10 @@ impl Recording {
         Self::from_bytes(&data)
     }
 
-    /// Validates and decodes an in-memory file.
+    /// Validates and decodes an in-memory file. A file cut short (no summary or footer, or
+    /// an incomplete last record, as a killed writer leaves it) gives every complete
+    /// record before the cut and a [`Recovery`] saying what was dropped; any other damage
+    /// is an error.
     pub fn from_bytes(data: &[u8]) -> Result<Self, ReadError> {
         if data.is_empty() {
             return Err(ReadError::Empty);
@@ -166,141 +331,30 @@ impl Recording {
                 size: data.len() as u64,
             });
         }
-        let options = LinearReaderOptions::default()
-            .with_emit_chunks(false)
-            .with_prevalidate_chunk_crcs(true)
-            .with_validate_data_section_crc(true)
-            .with_validate_summary_section_crc(true)
-            .with_check_finishes_after_end_magic(true)
-            .with_record_length_limit(data.len());
-        let mut reader = LinearReader::new_with_options(options);
-        let mut rec = Recording {
-            bytes: data.len() as u64,
-            ..Default::default()
-        };
-        let mut schemas: BTreeMap<u16, SchemaDef> = BTreeMap::new();
-        let mut channels: BTreeMap<u16, ChannelInfo> = BTreeMap::new();
-        let mut fed = 0usize;
-        let mut messages = 0u64;
-        let mcap_err = |fed: usize, source| ReadError::Mcap {
-            offset: fed,
-            size: data.len(),
-            source,
-        };
-        for _ in 0..MAX_EVENTS {
-            let Some(event) = reader.next_event() else {
-                rec.channels = channels.into_values().collect();
-                return Ok(rec);
-            };
-            match event.map_err(|e| mcap_err(fed, e))? {
-                LinearReadEvent::ReadRequest(n) => {
-                    let k = n.min(data.len() - fed);
-                    reader.insert(k).copy_from_slice(&data[fed..fed + k]);
-                    reader.notify_read(k);
-                    fed += k;
-                }
-                LinearReadEvent::Record { data: body, opcode } => {
-                    let record = mcap::parse_record(opcode, body).map_err(|e| mcap_err(fed, e))?;
-                    match record {
-                        McapRecord::Schema { header, data } => {
-                            let def = SchemaDef {
-                                name: header.name,
-                                encoding: header.encoding,
-                                text: data.into_owned(),
-                            };
-                            if let Some(old) = schemas.get(&header.id) {
-                                if *old != def {
-                                    return Err(ReadError::Conflict {
-                                        what: "schema",
-                                        id: header.id,
-                                    });
-                                }
-                            } else {
-                                schemas.insert(header.id, def);
-                            }
-                        }
-                        McapRecord::Channel(c) => {
-                            let (schema, schema_encoding, text) = if c.schema_id == 0 {
-                                (String::new(), String::new(), &[][..])
-                            } else {
-                                let s = schemas.get(&c.schema_id).ok_or_else(|| {
-                                    ReadError::UnknownSchema {
-                                        topic: c.topic.clone(),
-                                        schema_id: c.schema_id,
-                                    }
-                                })?;
-                                (s.name.clone(), s.encoding.clone(), &s.text[..])
-                            };
-                            let info = ChannelInfo {
-                                id: c.id,
-                                topic: c.topic,
-                                schema,
-                                schema_encoding,
-                                message_encoding: c.message_encoding,
-                                messages: 0,
-                            };
-                            check_planner_channel(&info, text)?;
-                            match channels.get(&c.id) {
-                                Some(old)
-                                    if old.topic != info.topic
-                                        || old.schema != info.schema
-                                        || old.message_encoding != info.message_encoding =>
-                                {
-                                    return Err(ReadError::Conflict {
-                                        what: "channel",
-                                        id: c.id,
-                                    })
-                                }
-                                Some(_) => {}
-                                None => {
-                                    channels.insert(c.id, info);
-                                }
-                            }
-                        }
-                        McapRecord::Message {
-                            header,
-                            data: payload,
-                        } => {
-                            let ch = channels.get_mut(&header.channel_id).ok_or(
-                                ReadError::UnknownChannel {
-                                    index: messages,
-                                    channel_id: header.channel_id,
-                                },
-                            )?;
-                            let index = ch.messages;
-                            ch.messages += 1;
-                            messages += 1;
-                            let t = header.log_time;
-                            rec.start_ns = Some(rec.start_ns.map_or(t, |s| s.min(t)));
-                            rec.end_ns = Some(rec.end_ns.map_or(t, |e| e.max(t)));
-                            let decode_err = |topic, source| ReadError::Decode {
-                                topic,
-                                index,
-                                log_time: t,
-                                source,
-                            };
-                            if ch.topic == INPUT_TOPIC {
-                                let m = decode_input(&payload)
-                                    .map_err(|e| decode_err(INPUT_TOPIC, e))?;
-                                rec.inputs.push(m);
-                            } else if ch.topic == OUTPUT_TOPIC {
-                                let m = decode_output(&payload)
-                                    .map_err(|e| decode_err(OUTPUT_TOPIC, e))?;
-                                rec.outputs.push(m);
-                            }
-                        }
-                        McapRecord::Metadata(m) if m.name == METADATA_NAME => {
-                            rec.recorder = m.metadata;
-                        }
-                        _ => {}
-                    }
-                }
+        match scan(data) {
+            Tail::Whole => decode(data, data.len(), None),
+            Tail::Cut { at, ends } => {
+                let recovery = Recovery {
+                    kept_bytes: at as u64,
+                    dropped_bytes: (data.len() - at) as u64,
+                    ends,
+                };
+                decode(data, at, Some(recovery))
             }
+            Tail::Damaged { at, problem } => Err(ReadError::Damaged {
+                offset: at,
+                size: data.len(),
+                problem,
+            }),
         }
-        Err(mcap_err(fed, mcap::McapError::UnexpectedEof))
     }
 
-    /// Time between the first and the last message [s].
+    /// True when the file was closed cleanly (nothing was recovered or dropped).
+    pub fn complete(&self) -> bool {
+        self.recovery.is_none()
+    }
+
+    /// Time between the first and the last message \[s\].
     pub fn duration_s(&self) -> f64 {
         match (self.start_ns, self.end_ns) {
             (Some(a), Some(b)) => b.saturating_sub(a) as f64 * 1e-9,
@@ -312,6 +366,49 @@ impl Recording {
     pub fn dropped(&self) -> Option<u64> {
         self.recorder.get("dropped").and_then(|v| v.parse().ok())
     }
+}
+
+/// Runs the MCAP reader over `data[..end]` (all CRCs checked) and decodes what it emits.
+/// Without a `recovery`, `end` is the file's size and running out of bytes is an error;
+/// with one, `end` is a record boundary and the read stops there.
+fn decode(data: &[u8], end: usize, recovery: Option<Recovery>) -> Result<Recording, ReadError> {
+    let options = LinearReaderOptions::default()
+        .with_emit_chunks(false)
+        .with_prevalidate_chunk_crcs(true)
+        .with_validate_data_section_crc(true)
+        .with_validate_summary_section_crc(true)
+        .with_check_finishes_after_end_magic(true)
+        .with_record_length_limit(data.len());
+    let mut reader = LinearReader::new_with_options(options);
+    let mut dec = Decoder::default();
+    dec.rec.bytes = data.len() as u64;
+    let mut fed = 0usize;
+    let mcap_err = |fed: usize, source| ReadError::Mcap {
+        offset: fed,
+        size: data.len(),
+        source,
+    };
+    for _ in 0..MAX_EVENTS {
+        let Some(event) = reader.next_event() else {
+            return Ok(dec.done(recovery));
+        };
+        match event.map_err(|e| mcap_err(fed, e))? {
+            LinearReadEvent::ReadRequest(_) if fed == end && recovery.is_some() => {
+                return Ok(dec.done(recovery));
+            }
+            LinearReadEvent::ReadRequest(n) => {
+                let k = n.min(end - fed);
+                reader.insert(k).copy_from_slice(&data[fed..fed + k]);
+                reader.notify_read(k);
+                fed += k;
+            }
+            LinearReadEvent::Record { data: body, opcode } => {
+                let record = mcap::parse_record(opcode, body).map_err(|e| mcap_err(fed, e))?;
+                dec.record(record)?;
+            }
+        }
+    }
+    Err(mcap_err(fed, mcap::McapError::UnexpectedEof))
 }
 
 /// The planner topics must carry exactly the schema this crate writes: name, encodings

@@ -1,7 +1,9 @@
 //! `replay`: replay planner recordings (MCAP) for determinism, latency and jitter.
 //!
 //! `replay run FILE` re-solves every recorded input on a pinned core; `replay info FILE`
-//! summarises a file; `replay record-oval` records a 10 Hz replanning drive on the oval.
+//! summarises a file; `replay record-oval` records a 10 Hz replanning drive on the oval;
+//! `replay recover IN OUT` rewrites what a file cut short holds as a clean file. A file
+//! cut short (a killed recorder) is read up to its last complete chunk, with a warning.
 //! Exit code 0 on success, 1 when a replayed output differs from the recorded one, 2 on
 //! bad input (unreadable or damaged file, bad options).
 
@@ -49,6 +51,13 @@ enum Command {
         /// Print exactly one JSON object on stdout.
         #[arg(long)]
         json: bool,
+    },
+    /// Write everything a (cut short) recording holds to a clean, closed file.
+    Recover {
+        /// The recording.
+        input: PathBuf,
+        /// The clean file (written beside it under a temporary name, then renamed).
+        output: PathBuf,
     },
     /// Record a replanning drive along the oval (stand-in for the IPC planner process).
     RecordOval {
@@ -98,8 +107,13 @@ fn resolve(path: &Path) -> PathBuf {
     }
 }
 
+/// Reads a recording; warns on stderr when it was not closed cleanly.
 fn read(file: &Path) -> Result<Recording, String> {
-    Recording::read(file).map_err(|e| format!("{}: {e}", file.display()))
+    let rec = Recording::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    if let Some(r) = &rec.recovery {
+        eprintln!("replay: warning: {}: {r}", file.display());
+    }
+    Ok(rec)
 }
 
 fn dispatch(command: Command) -> Result<ExitCode, String> {
@@ -156,6 +170,18 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             } else {
                 print!("{}: {info}", file.display());
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Recover { input, output } => {
+            let rec = read(&input)?;
+            let stats = plan_record::write_recording(&rec, &output).map_err(|e| e.to_string())?;
+            println!(
+                "wrote {} inputs and {} outputs from {} to {}",
+                stats.inputs,
+                stats.outputs,
+                input.display(),
+                output.display()
+            );
             Ok(ExitCode::SUCCESS)
         }
         Command::RecordOval {

@@ -117,7 +117,6 @@ impl Rejected {
     }
 }
 
-<<<<<<< HEAD
 /// The state the planner last planned from (or declined to plan from), keyed by the
 /// publisher's run id and the state's seq: seqs start over with every publisher run, so the
 /// seq alone would take a restarted tracker's state for one already planned.
@@ -150,7 +149,9 @@ impl LastPlanned {
     /// tracker restart.
     pub fn run_switches(&self) -> u64 {
         self.switches
-=======
+    }
+}
+
 /// The `--record` part of the planner cycle: each equilibrium-started plan is copied into a
 /// preallocated slot of a pooled [`Recorder`] and queued for its writer thread, which
 /// closes an MCAP chunk per plan (allocates nothing and never blocks; a plan that finds no
@@ -223,7 +224,6 @@ impl CycleRecorder {
     /// Drains the queue and closes the file.
     pub fn finish(self) -> Result<RecordStats, RecordError> {
         self.rec.finish()
->>>>>>> wt-record
     }
 }
 

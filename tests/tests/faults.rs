@@ -1,4 +1,4 @@
-//! End-to-end fault tests of the iceoryx2 closed loop (issue 4): the processes are spawned
+//! End-to-end fault tests of the iceoryx2 closed loop: the processes are spawned
 //! directly (`planner_proc`, `tracker_proc`, and the `inject_state` test helper) from the
 //! test's target profile folder; build them first (`cargo build -p ipc --bins`, same
 //! profile; `cargo test --workspace` does).

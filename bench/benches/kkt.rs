@@ -59,7 +59,7 @@ fn kkt(c: &mut Criterion) {
         })
     });
     // As in a solve, where the evaluation, the line search and the back-solves run between
-    // two factorizations: 4 MB (more than this VM's 1 MB L2) are written first, outside the
+    // two factorizations: 4 MB (more than a 1 MB L2 cache) are written first, outside the
     // timing, so the blocks, factors and index lists come from L3 or memory.
     let mut evict = vec![0u8; 4 << 20];
     g.bench_function("riccati/factorize_new_jacobian_cold", |b| {

@@ -1,7 +1,7 @@
 //! Whole solves from the equilibrium guess: the oval (paper Table I row implicit Euler /
 //! Fig. 4b), with the per-phase split printed once, for the fast derivative path, the
 //! num-dual oracle and `threads = 2` (helper thread for the factorization and the Hessian);
-//! and each race segment S01-S10 (paper Table II, issue #7: each under 20 ms median), one
+//! and each race segment S01-S10 (paper Table II), one
 //! criterion group per segment, with one and two threads. The scenarios' objective is
 //! t_N + 1 x steering slew; the `_pure_min_time` entries solve the paper's eq. 3 (weight 0),
 //! with the solver file shipped for it (`config/solver_min_time.toml`).

@@ -1,4 +1,4 @@
-//! Inter-process messages and the planner/tracker processes (issue 4).
+//! Inter-process messages and the planner/tracker processes.
 //!
 //! [`msg`] holds the `#[repr(C)]` zero-copy messages; [`services`] opens the iceoryx2
 //! services both processes share; [`road`] samples the closed road ahead; [`plant`]

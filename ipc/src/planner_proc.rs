@@ -56,8 +56,9 @@ pub struct PlannerArgs {
     /// Lane margin the plan keeps from each edge [m] (room for tracking error).
     #[arg(long, default_value_t = 0.5)]
     pub lane_margin_m: f64,
-    /// Warm-start from the previous plan shifted in s (off, the default for now: always the
-    /// equilibrium guess; warm starts measured worse in closed loop, see issue 4 notes).
+    /// Warm-start from the previous plan shifted in s (off by default: every plan starts
+    /// from the equilibrium guess, which converges more reliably in closed loop; see
+    /// docs/performance.md).
     #[arg(long, default_value = "off", value_parser = ["on", "off"])]
     pub warm_start: String,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).

@@ -63,7 +63,7 @@ fn ten_segments_optimal_and_match_reference() {
             "{name}: t_N {t} vs {t_ref}"
         );
         assert!(info.max_violation < 1e-6, "{name}: {}", info.max_violation);
-        // No iteration exceeds the refactorization cap (issue 7's bounded inertia handling).
+        // No iteration exceeds the refactorization cap (bounded inertia handling).
         let cap = p.solver().settings().max_refactorizations;
         assert!(info.max_factorizations_per_iter <= cap, "{name}: {info:?}");
         assert!(
@@ -117,9 +117,8 @@ fn critical_layout_with_saturation_is_certified_infeasible() {
 }
 
 /// The shipped segments objective (t_N + 1 x steering slew, `segments.toml`): every segment
-/// `optimal` in at most 40 iterations (the pure minimum time takes 89-103 on S01, S06 and
-/// S07), never faster than the pure optimum and within 0.5 % of it (issue 7's bound; measured
-/// +0.16 % at most, on S07).
+/// `optimal` in at most 40 iterations, never faster than the pure optimum and within 0.5 %
+/// of it (docs/modelling.md).
 #[test]
 fn ten_segments_with_the_shipped_objective() {
     let rows = reference("segments_ie_ipopt.csv", 1);

@@ -6,11 +6,10 @@ mod common;
 
 use plan_record::Recording;
 
-/// Every one of the first 12 plans is `optimal` within 150 iterations (83 at most with the
-/// shipped settings). Row scalings that only look at free-start problems can break this:
-/// with the saturation rows scaled by 3 instead of 0.1 (thirteenth session) the free-start
-/// set took 23 % fewer iterations, but here plan 4 hit the 500-iteration cap and the other
-/// plans took 121-368 iterations.
+/// Every one of the first 12 plans is `optimal` within 150 iterations. Row scalings that
+/// only look at free-start problems can break this: scaling the saturation rows by 3 instead
+/// of 0.1 helps the free starts but sends these plans to the iteration cap
+/// (docs/modelling.md, scaling).
 #[test]
 fn first_plans_of_the_drive_are_optimal_within_150_iterations() {
     let dir = common::temp_dir("drive12");

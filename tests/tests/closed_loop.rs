@@ -84,7 +84,7 @@ fn closed_loop_oval_lap_keeps_lane_and_tracks_plan() {
     assert!(max_e < 0.5, "max lateral error {max_e} m\n{v}");
 }
 
-/// Issue 5: `trajopt closed-loop --record` records every plan of the closed loop, and
+/// `trajopt closed-loop --record` records every plan of the closed loop, and
 /// `replay run` re-solves each input bit-identically (exit 0, "deterministic": true).
 #[test]
 fn closed_loop_recording_replays_bit_identically() {

@@ -36,7 +36,7 @@ pub struct SparseLdlt {
     ppattern: SymbolicSparseColMat<usize>,
     pvalues: Vec<f64>,
     pmap: Vec<usize>,
-    /// AMD permutation: permuted index i is original index fwd[i]; inv is its inverse.
+    /// AMD permutation: permuted index i is original index `fwd[i]`; `inv` is its inverse.
     perm_fwd: Vec<usize>,
     perm_inv: Vec<usize>,
     /// Symbolic factorization of the permuted matrix (identity ordering).

@@ -35,7 +35,7 @@
 //! forward substitution over the stages in elimination order, the initial block, and a
 //! backward substitution.
 //!
-//! # Layout
+//! # Modules
 //!
 //! - `setup`: structure checks and the value maps into the block arena (allocates, once).
 //! - `assemble`: the stage blocks with the path rows condensed in (step 1), unit by unit.

@@ -11,7 +11,7 @@
 //! [ A   C   ] [lambda] = [r_c]      A: (N+1) x (N+1) lower bidiagonal, D >= 0, C <= 0,
 //! ```
 //!
-//! solved here in O(N) by a block LDL^T of 2 x 2 pivots (see [`Chain`]); with C <= 0 and
+//! solved here in O(N) by a block LDL^T of 2 x 2 pivots (see `Chain`); with C <= 0 and
 //! D >= 0 its inertia is (N+1, N+1).
 //! The rest, one state fewer per stage, goes to the Riccati backend, whose blocks are then
 //! 8 states wide for the vehicle (two whole 4-wide vectors per column instead of 2 + 1).
@@ -30,7 +30,7 @@ use super::{Inertia, KktError, KktSolver, KktValues};
 /// the elimination is stable for any dual regularization, zero included.
 #[derive(Debug, Clone)]
 struct Chain {
-    /// x_k[i], k = 0..=N.
+    /// `x_k[i]`, k = 0..=N.
     vars: Vec<usize>,
     /// Row k: the initial row (k = 0) or the dynamics row of interval k - 1.
     rows: Vec<usize>,
@@ -117,7 +117,7 @@ impl Chain {
     }
 }
 
-/// What [`ChainSplit::detect`] found: the reduced problem for the inner backend and the
+/// What [`Reduced::detect`] found: the reduced problem for the inner backend and the
 /// maps back.
 #[derive(Debug, Clone)]
 pub struct Reduced {

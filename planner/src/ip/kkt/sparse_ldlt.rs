@@ -36,7 +36,7 @@ pub struct SparseLdlt {
     ppattern: SymbolicSparseColMat<usize>,
     pvalues: Vec<f64>,
     pmap: Vec<usize>,
-    /// AMD permutation: permuted index i is original index fwd[i]; inv is its inverse.
+    /// AMD permutation: permuted index i is original index `fwd[i]`; `inv` is its inverse.
     perm_fwd: Vec<usize>,
     perm_inv: Vec<usize>,
     /// Symbolic factorization of the permuted matrix (identity ordering).
@@ -131,8 +131,7 @@ impl SparseLdlt {
         let nnz = keys.len();
         let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
         let params_sym = CholeskySymbolicParams {
-            // Simplicial: measured 2x faster than supernodal on the N = 100 KKT
-            // (factorization 30 vs 60-67 ms over one oval solve).
+            // Simplicial: faster than supernodal on these KKT systems.
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
             ..Default::default()
         };
@@ -359,7 +358,7 @@ impl KktSolver for SparseLdlt {
                 if r_norm <= 1e-15 * b_norm.max(1e-300) {
                     break;
                 }
-                // Solve for the correction in `rhs` while keeping x in `b`... swap roles.
+                // The correction: solve with the residual in `rhs`, x held in `resid`.
                 std::mem::swap(&mut self.rhs, &mut self.resid);
                 self.solve_raw();
                 for (x, d) in self.resid.iter_mut().zip(&self.rhs) {

@@ -209,7 +209,7 @@ impl Default for Settings {
     }
 }
 
-/// Largest wall-clock cap of one solve [s].
+/// Largest wall-clock cap of one solve \[s\].
 pub const MAX_TIME_S: f64 = 3600.0;
 
 /// A setting outside its valid range.

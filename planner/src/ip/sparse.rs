@@ -42,7 +42,7 @@ impl ColumnJacobian {
         Self { start, entries }
     }
 
-    /// out += J^T v with the bits of [`jac_t_mul`] (each out[c] takes its terms in the
+    /// out += J^T v with the bits of [`jac_t_mul`] (each `out[c]` takes its terms in the
     /// pattern's order; a NaN's sign and payload aside).
     pub fn t_mul(&self, jac: &[f64], v: &[f64], out: &mut [f64]) {
         for (c, o) in out.iter_mut().enumerate() {

@@ -3,11 +3,11 @@
 //! l2 merit function (eq. 5), with inertia correction and a barrier-update rule.
 //!
 //! One iteration evaluates the derivatives at the current point, checks termination, and
-//! then either takes a feasibility-restoration step ([`restoration`]) or updates the
-//! barrier parameter ([`barrier_update`]), factorizes the KKT matrix with inertia
-//! correction ([`inertia`]), computes the search direction ([`direction`]), searches along
-//! it ([`line_search`], [`merit`]) and applies the safeguards of free mode and of the
-//! stall watch ([`barrier_update`], [`best`]).
+//! then either takes a feasibility-restoration step (`restoration`) or updates the
+//! barrier parameter (`barrier_update`), factorizes the KKT matrix with inertia
+//! correction (`inertia`), computes the search direction (`direction`), searches along
+//! it (`line_search`, `merit`) and applies the safeguards of free mode and of the
+//! stall watch (`barrier_update`, `best`).
 
 mod barrier_update;
 mod best;

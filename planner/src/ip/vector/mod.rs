@@ -191,12 +191,12 @@ fn lane_sum(v: &[f64], f: impl Fn(f64) -> f64) -> f64 {
 }
 
 /// Whether every entry of `v` is finite. Not short-circuiting: 0 x is +-0 for a finite x
-/// and NaN otherwise, summed by [`lane_sum`] without a compare and branch per entry.
+/// and NaN otherwise, summed by `lane_sum` without a compare and branch per entry.
 pub fn all_finite(v: &[f64]) -> bool {
     lane_sum(v, |x| x * 0.0) == 0.0
 }
 
-/// ||v||_1 by [`lane_sum`] (the filter's violation measure).
+/// ||v||_1 by `lane_sum` (the filter's violation measure).
 pub fn norm1(v: &[f64]) -> f64 {
     lane_sum(v, f64::abs)
 }

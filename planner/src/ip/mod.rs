@@ -1,8 +1,13 @@
 //! Primal-dual interior-point NLP solver (paper Sec. III), independent of vehicles.
 //!
-//! Problem definition ([`nlp`]), linear algebra ([`kkt`]), algorithm ([`solver`],
-//! [`barrier`], [`residuals`]), settings ([`settings`]) and results ([`info`]) are kept
-//! apart; every buffer lives in the [`workspace`], allocated once.
+//! Problem definition ([`nlp`]), linear algebra ([`kkt`], [`sparse`]), algorithm
+//! ([`solver`], [`barrier`], [`residuals`]), settings ([`settings`]) and results ([`info`])
+//! are kept apart; every buffer lives in the [`workspace`], allocated once.
+//!
+//! The modules depend on each other one way: [`sparse`] knows only slices; the
+//! [`workspace`] holds the sparse patterns; the [`vector`] kernels work on the workspace;
+//! [`residuals`] combines the sparse products and the vector kernels; [`barrier`] and the
+//! [`solver`] use them all.
 
 pub mod barrier;
 pub mod info;
@@ -11,6 +16,7 @@ pub mod nlp;
 pub mod residuals;
 pub mod settings;
 pub mod solver;
+pub mod sparse;
 pub mod vector;
 pub mod workspace;
 

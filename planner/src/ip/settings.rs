@@ -126,8 +126,8 @@ pub struct Settings {
     /// Monotone rule: superlinear decrease power theta_mu of mu (IPOPT: 1.5).
     pub mu_superlinear_power: f64,
     /// Monotone rule: a barrier problem counts as solved once its error is below this
-    /// factor times mu (IPOPT's barrier_tol_factor is 10; 30 here, measured on the
-    /// planner's objective; `config/solver_min_time.toml` keeps 10 for the pure minimum time).
+    /// factor times mu (IPOPT's barrier_tol_factor is 10; 30 here, for the planner's
+    /// objective; `config/solver_min_time.toml` keeps 10 for the pure minimum time).
     pub barrier_tol_factor: f64,
     /// Relative push of the starting point into the bounds.
     pub bound_push: f64,
@@ -141,8 +141,7 @@ pub struct Settings {
     pub armijo: f64,
     /// Try a second-order correction when the full step is rejected. Off by default: on the
     /// vehicle OCP the corrected trial violates the constraints more often than not (the
-    /// stiff wheel-speed rows at the first nodes), and the oval plus S01-S10 take 632
-    /// iterations without it against about 1000 with it (exact Riccati KKT solves).
+    /// stiff wheel-speed rows at the first nodes), so the corrections cost iterations.
     pub second_order_correction: bool,
     /// Initial penalty parameter nu of the merit function (paper eq. 5).
     pub penalty_init: f64,
@@ -210,7 +209,7 @@ impl Default for Settings {
     }
 }
 
-/// Largest wall-clock cap of one solve [s].
+/// Largest wall-clock cap of one solve \[s\].
 pub const MAX_TIME_S: f64 = 3600.0;
 
 /// A setting outside its valid range.
@@ -228,6 +227,13 @@ pub struct SettingsError {
 impl Settings {
     /// Checks every value is finite and in range.
     pub fn validate(&self) -> Result<(), SettingsError> {
+        self.check_ranges()?;
+        self.check_relations()?;
+        self.check_caps()
+    }
+
+    /// The values that must be positive and finite, and those in (0, 1).
+    fn check_ranges(&self) -> Result<(), SettingsError> {
         let pos = [
             ("tol", self.tol),
             ("constr_viol_tol", self.constr_viol_tol),
@@ -275,6 +281,11 @@ impl Settings {
                 });
             }
         }
+        Ok(())
+    }
+
+    /// The relations between values and the ranges narrower than (0, 1).
+    fn check_relations(&self) -> Result<(), SettingsError> {
         // Relations between values: each one's violation gives nonsense or cannot converge.
         let relations = [
             (
@@ -338,6 +349,11 @@ impl Settings {
                 expected: "must lie in [0, 1e-2)",
             });
         }
+        Ok(())
+    }
+
+    /// The caps on time, iterations and the inner loops, and the thread count.
+    fn check_caps(&self) -> Result<(), SettingsError> {
         // The caps bound the worst-case time of a solve (settings may come from a
         // recording): iterations, and within one iteration at most max_refactorizations
         // factorizations and max_backtracks trial evaluations.

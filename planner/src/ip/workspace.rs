@@ -31,8 +31,8 @@ pub struct Workspace {
     pub has_lo: Vec<bool>,
     /// w entry has an upper bound.
     pub has_hi: Vec<bool>,
-    /// `has_lo` as 1.0 / 0.0: the vector kernels select on a compare of these (a bool
-    /// lane cost a byte-to-mask shuffle and kept the compiler from whole AVX2 vectors).
+    /// `has_lo` as 1.0 / 0.0: the vector kernels select on a compare of these, which
+    /// vectorizes to whole AVX2 vectors where a bool lane does not.
     pub on_lo: Vec<f64>,
     /// `has_hi` as 1.0 / 0.0.
     pub on_hi: Vec<f64>,
@@ -43,7 +43,7 @@ pub struct Workspace {
     /// Jacobian column indices.
     pub jac_cols: Vec<usize>,
     /// The Jacobian pattern by columns (J^T products).
-    pub jac_t: super::residuals::ColumnJacobian,
+    pub jac_t: super::sparse::ColumnJacobian,
     /// Hessian row indices (lower triangle).
     pub hess_rows: Vec<usize>,
     /// Hessian column indices.
@@ -111,7 +111,7 @@ pub struct Workspace {
     pub dzu_aff: Vec<f64>,
     /// Scratch of length n + m.
     pub tmp_w: Vec<f64>,
-    /// grad f + J^T y over x, as [`super::residuals::compute_errors`] last formed it.
+    /// grad f + J^T y over x, as the KKT error computation last formed it.
     pub grad_lag: Vec<f64>,
     /// `grad_lag` is that of the current (x, y) and derivatives: set by the solver after
     /// the iteration's error computation, cleared when the iterate or its derivatives
@@ -135,7 +135,7 @@ pub struct Workspace {
     pub filter: Vec<(f64, f64)>,
     /// Free-mode progress filter of (violation, objective) pairs.
     pub progress: Vec<(f64, f64)>,
-    /// Run the vector kernels of [`super::vector`] in their AVX2 copy (same bits). Only
+    /// Run the vector kernels in their AVX2 copy (same bits). Only
     /// [`Workspace::set_simd`] sets it, so it is never true on a CPU without AVX2.
     pub(crate) simd: bool,
 }
@@ -186,7 +186,7 @@ impl Workspace {
             on_lo: v(nw),
             on_hi: v(nw),
             n_compl: 0,
-            jac_t: super::residuals::ColumnJacobian::new(&jac_rows, &jac_cols, n),
+            jac_t: super::sparse::ColumnJacobian::new(&jac_rows, &jac_cols, n),
             jac_rows,
             jac_cols,
             hess_rows,

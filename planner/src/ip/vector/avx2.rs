@@ -1,6 +1,6 @@
 //! AVX2 copies of the reduction kernels of [`super`], written with intrinsics: the
-//! compiler kept their per-entry selects scalar (or packed them into half-width vectors
-//! with shuffles) however the lanes were staged. Lane l of every vector holds the entries
+//! compiler keeps their per-entry selects scalar (or packs them into half-width vectors
+//! with shuffles) however the lanes are staged. Lane l of every vector holds the entries
 //! j = l (mod 4) in index order, the lanes of the baseline copies, and every lane takes the
 //! baseline's operations in its order (`min(a, b)` is `_mm256_min_pd(b, a)`, `max(a, b)`
 //! is `_mm256_max_pd(b, a)`), so both copies give the same bits (a NaN's sign and payload

@@ -1,0 +1,102 @@
+//! Best-iterate bookkeeping (a solve that does not converge returns the best point it
+//! saw) and the stall watch of the regular iterations.
+
+use super::Solver;
+use crate::ip::kkt::KktSolver;
+use crate::ip::nlp::Nlp;
+use crate::ip::residuals::{self, Errors};
+
+/// Iterations without a 1 % decrease of ||c||_2 (or a decrease of the objective) after
+/// which an infeasible iteration counts as stalled.
+const STALL_ITERS: usize = 30;
+
+/// Progress watch of the regular iterations: a run of tiny steps, or no 1 % decrease of
+/// ||c||_2 nor any decrease of the objective in [`STALL_ITERS`] iterations.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct StallWatch {
+    /// Consecutive accepted steps shorter than 1e-4.
+    tiny_steps: usize,
+    /// Smallest ||c||_2 seen.
+    theta_ref: f64,
+    /// Smallest objective seen.
+    f_ref: f64,
+    /// Iterations since the last progress.
+    stalled: usize,
+}
+
+impl StallWatch {
+    /// A watch that has seen nothing.
+    pub(super) fn new() -> Self {
+        Self {
+            tiny_steps: 0,
+            theta_ref: f64::INFINITY,
+            f_ref: f64::INFINITY,
+            stalled: 0,
+        }
+    }
+
+    /// Records an accepted step of length `alpha` to a point with ||c||_2 = `theta` and
+    /// objective `f`; returns whether the iteration stalls.
+    pub(super) fn record(&mut self, alpha: f64, theta: f64, f: f64) -> bool {
+        self.tiny_steps = if alpha < 1e-4 { self.tiny_steps + 1 } else { 0 };
+        if theta < 0.99 * self.theta_ref || f < self.f_ref - 1e-6 * self.f_ref.abs().max(1.0) {
+            self.theta_ref = self.theta_ref.min(theta);
+            self.f_ref = self.f_ref.min(f);
+            self.stalled = 0;
+        } else {
+            self.stalled += 1;
+        }
+        self.tiny_steps >= 5 || self.stalled >= STALL_ITERS
+    }
+}
+
+impl<K: KktSolver> Solver<K> {
+    /// Saves the current iterate when its score beats `best_score`.
+    pub(super) fn watch_best(&mut self, err: &Errors, best_score: &mut (f64, f64)) {
+        let score = self.score(err);
+        if score < *best_score {
+            *best_score = score;
+            self.save_best();
+        }
+    }
+
+    /// Ranking of iterates for "best so far": feasibility first, then KKT error.
+    pub(super) fn score(&self, e: &Errors) -> (f64, f64) {
+        let feas = if e.inf_pr <= self.settings.acceptable_constr_viol_tol {
+            0.0
+        } else {
+            e.inf_pr
+        };
+        (feas, e.overall())
+    }
+
+    pub(super) fn save_best(&mut self) {
+        let ws = &mut self.ws;
+        ws.best_w.copy_from_slice(&ws.w);
+        ws.best_y.copy_from_slice(&ws.y);
+        ws.best_zl.copy_from_slice(&ws.zl);
+        ws.best_zu.copy_from_slice(&ws.zu);
+    }
+
+    pub(super) fn restore_best(&mut self) {
+        self.phi_current = None;
+        let ws = &mut self.ws;
+        ws.grad_lag_fresh = false;
+        ws.w.copy_from_slice(&ws.best_w);
+        ws.y.copy_from_slice(&ws.best_y);
+        ws.zl.copy_from_slice(&ws.best_zl);
+        ws.zu.copy_from_slice(&ws.best_zu);
+    }
+
+    pub(super) fn reevaluate<P: Nlp + ?Sized>(&mut self, nlp: &mut P, evals: &mut usize) {
+        let ws = &mut self.ws;
+        ws.grad_lag_fresh = false;
+        let n = ws.n;
+        ws.f = nlp.eval_f(&ws.w[..n]);
+        nlp.eval_g(&ws.w[..n], &mut ws.g);
+        nlp.eval_grad_f(&ws.w[..n], &mut ws.grad);
+        nlp.eval_jac_g(&ws.w[..n], &mut ws.jac);
+        *evals += 1;
+        residuals::constraint_residual(&ws.is_eq, &ws.g_l, n, &ws.g, &ws.w, &mut ws.c);
+    }
+}

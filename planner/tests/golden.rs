@@ -107,8 +107,12 @@ fn fnv1a(parts: &[&[f64]]) -> u64 {
 fn solve_line(case: &Case, weight: f64) -> String {
     let root = config();
     let vehicle = load_vehicle(&root.join("vehicles/lc500.toml")).expect("vehicle");
-    let mut spec = load_scenario(&root.join("scenarios").join(case.file), case.select, vehicle)
-        .expect("scenario");
+    let mut spec = load_scenario(
+        &root.join("scenarios").join(case.file),
+        case.select,
+        vehicle,
+    )
+    .expect("scenario");
     if let Some(s) = case.saturation {
         spec.enforce_tire_saturation = s;
     }
@@ -159,7 +163,9 @@ fn every_shipped_scenario_gives_the_committed_iterations_and_bits() {
         if bits_comparable() {
             line.to_string()
         } else {
-            line.rsplit_once(',').map_or(line, |(head, _)| head).to_string()
+            line.rsplit_once(',')
+                .map_or(line, |(head, _)| head)
+                .to_string()
         }
     };
     let diff: Vec<String> = expected

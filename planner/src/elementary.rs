@@ -2,11 +2,11 @@
 //! (musl's algorithms in Rust, within 1 ulp), so that the planner's own arithmetic gives a
 //! plan the same bits on every x86-64 machine: the C library picks an FMA or a plain
 //! variant of `sincos`, `tan`, `exp`, `log` and `pow` at run time, and a replay on another
-//! machine must reproduce a plan's bits. Its sincos and tan are also about twice as fast
-//! here (5 ns against 10-16 ns; the C library saves and restores the rounding mode on every
-//! call). Dual numbers (the equilibrium guess's fit and the AD oracle) take the same libm
-//! values through their Taylor polynomial (see [`sin_cos`]): num-dual's own rules call the
-//! C library for the real part.
+//! machine must reproduce a plan's bits. Its sincos and tan are also faster here (the C
+//! library saves and restores the rounding mode on every call). Dual numbers (the
+//! equilibrium guess's fit and the AD oracle) take the same libm values through their
+//! Taylor polynomial (see [`sin_cos`]): num-dual's own rules call the C library for the
+//! real part.
 
 use num_dual::DualNum;
 

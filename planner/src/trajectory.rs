@@ -11,7 +11,7 @@ use crate::model::{iu, ix, NU, NX};
 pub struct Trajectory {
     /// Name of the scenario or segment.
     pub name: String,
-    /// Node spacing ds [m].
+    /// Node spacing ds \[m\].
     pub ds: f64,
     /// States x_0..x_N in the order of [`crate::model::ix`].
     pub x: Vec<[f64; NX]>,
@@ -19,9 +19,9 @@ pub struct Trajectory {
     pub u: Vec<[f64; NU]>,
     /// k_ref at every node [1/m].
     pub kappa: Vec<f64>,
-    /// Right lane bound at every node [m].
+    /// Right lane bound at every node \[m\].
     pub e_min: Vec<f64>,
-    /// Left lane bound at every node [m].
+    /// Left lane bound at every node \[m\].
     pub e_max: Vec<f64>,
 }
 
@@ -37,12 +37,12 @@ impl Trajectory {
         self.u.len()
     }
 
-    /// Final time t_N [s] (the objective, plus the steering-slew term when it is weighted).
+    /// Final time t_N \[s\] (the objective, plus the steering-slew term when it is weighted).
     pub fn t_final(&self) -> f64 {
         self.x.last().map_or(f64::NAN, |x| x[ix::T])
     }
 
-    /// Largest |beta| over the nodes [rad].
+    /// Largest |beta| over the nodes \[rad\].
     pub fn max_abs_beta(&self) -> f64 {
         self.x.iter().fold(0.0, |a, x| a.max(x[ix::BETA].abs()))
     }

@@ -16,10 +16,8 @@ use std::time::{Duration, Instant};
 
 /// How long the idle helper polls for the next job before it parks. Waking a parked thread
 /// costs tens of microseconds on a VM, but a helper that spins through the caller's
-/// single-threaded phases slows them down (shared clock or core resources): on the 2-vCPU
-/// VM, forty interleaved oval pairs gave 0.87x the one-thread time with 100 us, 0.92x with
-/// 20 us (each join pays a wake-up) and 0.87x to 1.05x with 500 us (back-solves and line
-/// search slower while it spins).
+/// single-threaded phases slows them down (shared clock or core resources): a shorter spin
+/// makes each join pay a wake-up, a longer one slows the back-solves and the line search.
 pub const SPIN: Duration = Duration::from_micros(100);
 
 const IDLE: u32 = 0;

@@ -171,7 +171,7 @@ fn profile_error(test: &str, text: &str, lap: f64) -> String {
     let root = TempRoot::new(test);
     let path = root.write("tracks/T_profile.csv", text);
     let err = Profile::load(&path, lap).expect_err("broken profile must not load");
-    message(err, &path)
+    message(err.into(), &path)
 }
 
 #[test]

@@ -1,8 +1,10 @@
-//! The one error type of configuration and track loading.
+//! The error type of configuration loading.
 
+use crate::track::TrackFileError;
 use std::path::PathBuf;
 
-/// What went wrong while reading a vehicle, scenario, track index or track CSV file.
+/// What went wrong while reading a vehicle, scenario or track index file, or a track CSV
+/// file one of them names.
 ///
 /// Every variant names the file; the message says which field (dotted TOML path such as
 /// `chassis.m`) or which CSV line is at fault and what was expected.
@@ -44,16 +46,9 @@ pub enum ConfigError {
         /// What was expected instead.
         expected: String,
     },
-    /// A CSV line is malformed or out of range (`line` is 1-based; 0 for the file as a whole).
-    #[error("{}:{line}: {message}", file.display())]
-    Csv {
-        /// File that failed.
-        file: PathBuf,
-        /// 1-based line number (0: the whole file).
-        line: usize,
-        /// What is wrong with the line.
-        message: String,
-    },
+    /// A track CSV file named by the configuration is malformed or does not fit it.
+    #[error(transparent)]
+    Track(#[from] TrackFileError),
     /// The selection names no entry of a multi-entry file, or none was given where one is needed.
     #[error("{}: {message}; available: {}", file.display(), available.join(", "))]
     Selection {
@@ -79,15 +74,6 @@ impl ConfigError {
             field: field.into(),
             value: value.to_string(),
             expected: expected.into(),
-        }
-    }
-
-    /// Shorthand for [`ConfigError::Csv`].
-    pub(crate) fn csv(file: &std::path::Path, line: usize, message: impl Into<String>) -> Self {
-        ConfigError::Csv {
-            file: file.to_path_buf(),
-            line,
-            message: message.into(),
         }
     }
 }

@@ -2,9 +2,9 @@
 //!
 //! The data root (`config/` in the repository) holds `vehicles/`, `scenarios/` and
 //! `tracks/`; paths written inside scenario files resolve against it ([`data_root_of`]).
-//! Every failure is a [`ConfigError`] naming the file and the field or CSV line.
+//! Every failure is a [`ConfigError`] naming the file and the field or, for a track file,
+//! the CSV line ([`crate::track::TrackFileError`]).
 
-pub(crate) mod csv;
 mod error;
 mod fields;
 mod scenario;

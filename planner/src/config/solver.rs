@@ -11,7 +11,7 @@ use crate::ip::Settings;
 pub const SOLVER_FILE: &str = "solver.toml";
 /// The shipped solver file for the paper's pure minimum time (eq. 3, steering-slew weight 0).
 /// It differs from [`SOLVER_FILE`] only in `barrier_tol_factor` (IPOPT's 10 there, 30 in the
-/// planner's file): each value was measured best on its own objective (README, Solver
+/// planner's file): each value is the better one on its own objective (README, Solver
 /// settings per objective).
 pub const SOLVER_FILE_MIN_TIME: &str = "solver_min_time.toml";
 

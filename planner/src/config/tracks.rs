@@ -36,7 +36,7 @@ pub struct TrackInfo {
     pub profile_csv: PathBuf,
     /// Raw centerline CSV, if named.
     pub raw_csv: Option<PathBuf>,
-    /// Lap length [m] (period of the profile).
+    /// Lap length \[m\] (period of the profile).
     pub lap_length: f64,
     /// Driving direction.
     pub direction: Direction,

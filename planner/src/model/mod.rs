@@ -26,25 +26,25 @@ pub mod ix {
     pub const R: usize = 0;
     /// Speed V [m/s].
     pub const V: usize = 1;
-    /// Sideslip beta [rad].
+    /// Sideslip beta \[rad\].
     pub const BETA: usize = 2;
     /// Rear wheel speed V_wr [m/s].
     pub const VWR: usize = 3;
-    /// Load transfer dFz [N].
+    /// Load transfer dFz \[N\].
     pub const DFZ: usize = 4;
-    /// Lateral error e [m].
+    /// Lateral error e \[m\].
     pub const E: usize = 5;
-    /// Heading error dpsi [rad].
+    /// Heading error dpsi \[rad\].
     pub const DPSI: usize = 6;
-    /// Arc length s [m].
+    /// Arc length s \[m\].
     pub const S: usize = 7;
-    /// Time t [s].
+    /// Time t \[s\].
     pub const T: usize = 8;
 }
 
 /// Index of each control in u.
 pub mod iu {
-    /// Steering angle delta [rad].
+    /// Steering angle delta \[rad\].
     pub const DELTA: usize = 0;
     /// Combined rear torque T_comb [N m].
     pub const TCOMB: usize = 1;

@@ -6,21 +6,21 @@
 /// range once constructed there. Field names follow the vehicle file.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VehicleParams {
-    /// Vehicle mass m [kg].
+    /// Vehicle mass m \[kg\].
     pub m: f64,
-    /// Wheelbase L [m].
+    /// Wheelbase L \[m\].
     pub l: f64,
-    /// CG to front axle a [m].
+    /// CG to front axle a \[m\].
     pub a: f64,
-    /// CG to rear axle b [m].
+    /// CG to rear axle b \[m\].
     pub b: f64,
-    /// CG height h_cg [m].
+    /// CG height h_cg \[m\].
     pub h_cg: f64,
     /// Yaw inertia I_z [kg m^2].
     pub i_z: f64,
     /// Gravity g [m/s^2].
     pub g: f64,
-    /// Effective wheel radius R_w [m] (both axles).
+    /// Effective wheel radius R_w \[m\] (both axles).
     pub r_w: f64,
     /// Lumped rear wheel inertia I_w [kg m^2].
     pub i_w: f64,
@@ -32,7 +32,7 @@ pub struct VehicleParams {
     pub mu: f64,
     /// Load transfer rate constant c_L [1/s].
     pub c_l: f64,
-    /// Steering limit |delta| <= delta_max [rad].
+    /// Steering limit |delta| <= delta_max \[rad\].
     pub delta_max: f64,
     /// Upper bound of the combined rear torque T_comb [N m].
     pub t_comb_max: f64,
@@ -171,18 +171,18 @@ impl VehicleParams {
         Ok(())
     }
 
-    /// Static front axle load F_z,nom,f = m g b / L [N].
+    /// Static front axle load F_z,nom,f = m g b / L \[N\].
     pub fn fz_nom_front(&self) -> f64 {
         self.m * self.g * self.b / self.l
     }
-    /// Static rear axle load F_z,nom,r = m g a / L [N].
+    /// Static rear axle load F_z,nom,r = m g a / L \[N\].
     pub fn fz_nom_rear(&self) -> f64 {
         self.m * self.g * self.a / self.l
     }
 }
 
-/// Test fixture: the Lexus LC 500 values of `vehicles/lc500.toml` (until the config loader
-/// lands).
+/// Test fixture: the Lexus LC 500 values of `vehicles/lc500.toml`, built in code (no file
+/// read).
 #[doc(hidden)]
 pub fn lc500() -> VehicleParams {
     VehicleParams {

@@ -26,17 +26,17 @@ use num_dual::DualNum;
 /// Tire forces, loads and slips of both axles at one (x, u), generic over the scalar.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TireForces<D> {
-    /// Front longitudinal force F_xf = T_bf / R_w [N] (R1).
+    /// Front longitudinal force F_xf = T_bf / R_w \[N\] (R1).
     pub fxf: D,
-    /// Front lateral force F_yf [N].
+    /// Front lateral force F_yf \[N\].
     pub fyf: D,
-    /// Rear longitudinal force F_xr [N].
+    /// Rear longitudinal force F_xr \[N\].
     pub fxr: D,
-    /// Rear lateral force F_yr [N].
+    /// Rear lateral force F_yr \[N\].
     pub fyr: D,
-    /// Front axle load F_zf = m g b / L - dFz [N].
+    /// Front axle load F_zf = m g b / L - dFz \[N\].
     pub fzf: D,
-    /// Rear axle load F_zr = m g a / L + dFz [N].
+    /// Rear axle load F_zr = m g a / L + dFz \[N\].
     pub fzr: D,
     /// Front slip tan(alpha_f) [-].
     pub tan_alpha_f: D,
@@ -48,17 +48,17 @@ pub struct TireForces<D> {
     pub sigma_f: D,
     /// Smoothed total rear slip sigma_r [-] (R6).
     pub sigma_r: D,
-    /// De-rated, floored front capacity F_max,f [N] (R1, R7).
+    /// De-rated, floored front capacity F_max,f \[N\] (R1, R7).
     pub fmax_f: D,
-    /// Rear capacity F_max,r = mu F_zr [N].
+    /// Rear capacity F_max,r = mu F_zr \[N\].
     pub fmax_r: D,
     /// Front full-sliding slip sigma_sl,f = 3 F_max,f / C_f [-] (R4).
     pub sigma_sl_f: D,
     /// Rear full-sliding slip sigma_sl,r = 3 F_max,r / C_r [-] (R4).
     pub sigma_sl_r: D,
-    /// Front total force magnitude F_total,f [N].
+    /// Front total force magnitude F_total,f \[N\].
     pub ftotal_f: D,
-    /// Rear total force magnitude F_total,r [N].
+    /// Rear total force magnitude F_total,r \[N\].
     pub ftotal_r: D,
 }
 

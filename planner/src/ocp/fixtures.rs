@@ -1,4 +1,5 @@
-//! Test fixtures built in code until the config loader lands.
+//! Test fixtures built in code: the oval's spec without reading its scenario file, and a
+//! reader for the committed peer reference solution.
 
 use super::spec::{InitialState, OcpSpec};
 use crate::model::params::lc500;

@@ -6,7 +6,7 @@
 //! intermediate variables into jets over more inputs.
 //!
 //! The Hessian of a [`D2`] is stored and updated as a full symmetric square (fixed-trip
-//! inner loops the compiler unrolls and vectorizes; measured faster than triangle loops).
+//! inner loops the compiler unrolls and vectorizes, unlike triangle loops).
 
 // Jet arithmetic implements each operator by its derivative rules, which mix operators.
 #![allow(clippy::suspicious_arithmetic_impl)]

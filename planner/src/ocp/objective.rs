@@ -1,7 +1,7 @@
 //! The objective of the transcribed OCP: the paper's minimum time t_N (eq. 3) plus an
 //! optional steering-slew term that keeps the steering from weaving at its rate limit.
 //!
-//! J = t_N + w sum_{k=1}^{N-1} ((delta_k - delta_{k-1}) / delta_rate_max)^2 [s], each term
+//! J = t_N + w sum_{k=1}^{N-1} ((delta_k - delta_{k-1}) / delta_rate_max)^2 \[s\], each term
 //! the squared time the steering change of interval k takes at the rate limit
 //! ([`crate::ocp::OcpSpec::steering_slew_weight`] = w). In the scaled variables
 //! z = delta / U_NOMINAL it is a constant quadratic: its Hessian never changes and is

@@ -10,7 +10,7 @@ use super::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
 use super::fast;
 use super::layout::Layout;
 use super::scaling::{FRICTION_SCALE, U_NOMINAL, X_NOMINAL};
-use super::spec::{InitialState, OcpSpec};
+use super::spec::{InitialState, OcpSpec, FREE_BETA0_MAX, FREE_R0_MAX};
 use crate::model::{iu, ix, saturation, VehicleParams, NU, NX};
 use num_dual::DualNum;
 
@@ -34,7 +34,7 @@ pub const RATE_NNZ: usize = 4 * RATE_ROWS;
 const SAT_STATES: [usize; 5] = [ix::R, ix::V, ix::BETA, ix::VWR, ix::DFZ];
 const SAT_CONTROLS: [usize; 2] = [iu::DELTA, iu::TBF];
 
-/// States of the initial-condition rows g = x_0[state], in row order. All nine rows are
+/// States of the initial-condition rows g = x_0\[state\], in row order. All nine rows are
 /// always present, so the constraint structure (and the solver's symbolic factorization) does
 /// not depend on the initial-state mode and [`crate::ocp::Transcription::set_initial`] only
 /// changes bounds. s_0, t_0 and dpsi_0 come first (equalities in both modes).
@@ -51,25 +51,20 @@ pub const INITIAL_ROWS: [usize; NX] = [
 ];
 
 /// Free-mode envelope of the initial rows of V, V_wr and e (already bounded as variables):
-/// |x_0[i]| <= 100 nominals (scaled units; e.g. |e_0| <= 100 m), never active.
+/// |x_0\[i\]| <= 100 nominals (scaled units; e.g. |e_0| <= 100 m), never active.
 pub const FREE_ROW_ENVELOPE: f64 = 100.0;
-/// Free-mode envelope |r_0| <= 10 rad/s (physically never active).
-pub const FREE_R0_MAX: f64 = 10.0;
-/// Free-mode envelope |beta_0| <= 1.5 rad (physically never active).
-pub const FREE_BETA0_MAX: f64 = 1.5;
 
 /// Scaled bounds (g_l, g_u) of the initial-condition row of state `i`.
 ///
-/// * Fixed(x0): every row is the equality x_0[i] = x0[i]; x_0 has no variable bounds (a
+/// * Fixed(x0): every row is the equality x_0\[i\] = x0\[i\]; x_0 has no variable bounds (a
 ///   fixed value on a variable bound would leave no interior).
 /// * Free (paper convention): s_0 = t_0 = dpsi_0 = 0 are equalities; x_0 has the same
-///   variable bounds as every other node (e_min[0] <= e_0 <= e_max[0], V, V_wr), and the
+///   variable bounds as every other node (e_min\[0\] <= e_0 <= e_max\[0\], V, V_wr), and the
 ///   other six rows are inactive inequality rows: |r_0| <= 10 rad/s, |beta_0| <= 1.5 rad,
-///   |dFz_0| <= m g, and |x_0[i]| <= [`FREE_ROW_ENVELOPE`] nominals for V, V_wr, e. They are
+///   |dFz_0| <= m g, and |x_0\[i\]| <= [`FREE_ROW_ENVELOPE`] nominals for V, V_wr, e. They are
 ///   not left at -inf..inf: the solver gives such a row a slack without any barrier term,
 ///   whose zero curvature makes the condensed KKT dual diagonal -1/(sigma_s + delta_w)
-///   infinite when delta_w = 0. (Measured on the oval: 50 iterations, vs. 54 with the
-///   node-0 bounds moved onto these rows and 48 with only three initial rows.)
+///   infinite when delta_w = 0.
 pub fn initial_row_bounds(spec: &OcpSpec, i: usize) -> (f64, f64) {
     match spec.initial {
         InitialState::Fixed(x0) => (x0[i] / X_NOMINAL[i], x0[i] / X_NOMINAL[i]),
@@ -286,7 +281,7 @@ pub fn saturation_hess_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usi
 // ---------------------------------------------------------------- control rates
 
 /// Jacobian pattern of the rate rows of interval k >= 1: for each control j an upper and
-/// a lower row, entries (u_k[j], u_{k-1}[j], t_k, t_{k-1}).
+/// a lower row, entries (u_k\[j\], u_{k-1}\[j\], t_k, t_{k-1}).
 pub fn rate_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {
     for j in 0..NU {
         for side in 0..2 {

@@ -10,23 +10,22 @@ use crate::model::{NU, NX};
 pub const X_NOMINAL: [f64; NX] = [1.0, 10.0, 0.1, 10.0, 1000.0, 1.0, 0.1, 100.0, 10.0];
 /// Nominal value of each control [delta, T_comb, T_bf] (SI units).
 pub const U_NOMINAL: [f64; NU] = [0.1, 1000.0, 1000.0];
-/// Scale of the objective: f = t_N / OBJECTIVE_SCALE. With 0.1 (f = 10 t_N [s]) the
-/// objective outweighs the initial barrier terms of the ~1000 bounds; with the
-/// reference's t_N / 10 our barrier methods spend dozens of iterations near the analytic
-/// centre (measured: 48 iterations monotone vs. hundreds).
+/// Scale of the objective: f = t_N / OBJECTIVE_SCALE. With 0.1 (f = 10 t_N \[s\]) the
+/// objective outweighs the initial barrier terms of the ~1000 bounds; a smaller objective
+/// (the reference's t_N / 10) keeps the barrier method near the analytic centre for many
+/// iterations.
 pub const OBJECTIVE_SCALE: f64 = 0.1;
-/// Scale of the front friction rows (R9) [N].
+/// Scale of the front friction rows (R9) \[N\].
 pub const FRICTION_SCALE: f64 = 1000.0;
 /// Scale of the tire saturation rows (R5) [-] with a fixed (measured) initial state, the
 /// planner's case: the row is (sigma - sigma_sl) / 0.1. Larger scales break fixed starts
-/// near the tire limits: the saturation multipliers grow up to 30x, and at 3 the first
-/// plans of the oval replanning drive hit the iteration cap or failed numerically
-/// (`replay/tests/replanning_drive.rs`; thirteenth session, README).
+/// near the tire limits: the saturation multipliers grow, and the first plans of the oval
+/// replanning drive (`replay/tests/replanning_drive.rs`) hit the iteration cap or fail
+/// numerically.
 pub const SATURATION_SCALE_FIXED: f64 = 0.1;
 /// Scale of the tire saturation rows with a free initial state (the paper's oval and
-/// segment problems): (sigma - sigma_sl) / 3. Measured against 0.1: 23 % fewer iterations
-/// over the 51 free starts (2457 against 3183) and 25 % over 40 held-out ones (2127
-/// against 2849); scales 1.5-5 all beat 0.1 (thirteenth and fourteenth sessions, README).
+/// segment problems): (sigma - sigma_sl) / 3. On free starts it takes fewer iterations
+/// than 0.1, and so does every scale from 1.5 to 5.
 pub const SATURATION_SCALE_FREE: f64 = 3.0;
 
 /// Scale of the tire saturation rows for a problem with this initial-state treatment.

@@ -2,7 +2,6 @@
 //! options and the vehicle. Built from config + track; consumed by a transcription.
 
 use crate::model::{ix, ParamError, VehicleParams, NX, STATE_NAMES};
-use crate::ocp::path_constraints::{FREE_BETA0_MAX, FREE_R0_MAX};
 
 /// How the initial state x_0 is treated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,13 +21,13 @@ pub struct OcpSpec {
     pub name: String,
     /// Number of intervals N (states x_0..x_N, controls u_0..u_{N-1}).
     pub n_intervals: usize,
-    /// Horizon length [m]; s_N = length.
+    /// Horizon length \[m\]; s_N = length.
     pub length: f64,
     /// Reference curvature k_ref(s_k) at every node [1/m] (R8: evaluated at the grid).
     pub kappa: Vec<f64>,
-    /// Right lateral bound e_min(s_k) at every node [m] (obstacles already applied).
+    /// Right lateral bound e_min(s_k) at every node \[m\] (obstacles already applied).
     pub e_min: Vec<f64>,
-    /// Left lateral bound e_max(s_k) at every node [m] (obstacles already applied).
+    /// Left lateral bound e_max(s_k) at every node \[m\] (obstacles already applied).
     pub e_max: Vec<f64>,
     /// Speed lower bound [m/s].
     pub v_min: f64,
@@ -69,7 +68,7 @@ pub enum SpecError {
 }
 
 impl OcpSpec {
-    /// Node spacing ds = length / N [m].
+    /// Node spacing ds = length / N \[m\].
     pub fn ds(&self) -> f64 {
         self.length / self.n_intervals as f64
     }
@@ -163,6 +162,13 @@ pub fn check_road(kappa: &[f64], e_min: &[f64], e_max: &[f64], n: usize) -> Resu
     Ok(())
 }
 
+/// Free-mode envelope |r_0| <= 10 rad/s of the initial rows (physically never active); a
+/// fixed initial state must lie within it too ([`InitialDomain`]).
+pub const FREE_R0_MAX: f64 = 10.0;
+/// Free-mode envelope |beta_0| <= 1.5 rad of the initial rows (physically never active); a
+/// fixed initial state must lie within it too ([`InitialDomain`]).
+pub const FREE_BETA0_MAX: f64 = 1.5;
+
 /// Where a fixed initial state x_0 must lie for the model and the OCP to make sense. A
 /// state outside it is refused with the entry named, instead of being handed to the
 /// solver, which would spend its caps and report a failure.
@@ -173,7 +179,7 @@ pub struct InitialDomain<'a> {
     pub vehicle: Option<&'a VehicleParams>,
     /// Speed bounds (v_min, v_max) [m/s].
     pub v: (f64, f64),
-    /// Lateral bounds at node 0 (e_min[0], e_max[0]) [m].
+    /// Lateral bounds at node 0 (e_min\[0\], e_max\[0\]) \[m\].
     pub e0: (f64, f64),
     /// Road curvature at node 0 [1/m], if known.
     pub kappa0: Option<f64>,

@@ -8,7 +8,7 @@ use serde::Deserialize;
 
 use super::segments::SegmentsStudy;
 use super::StudyError;
-use crate::config::{data_root_of, ConfigError};
+use crate::config::data_root_of;
 use crate::model::ix;
 use crate::plot::{centerline_xy, ensure_font, PlotError};
 use crate::track::Profile;
@@ -130,7 +130,7 @@ pub fn plot_paths(scenario: &Path, study: &SegmentsStudy, path: &Path) -> Result
         });
     };
     let profile = Profile::load(&root_dir.join(&track.profile_csv), track.lap_length_m)
-        .map_err(|e: ConfigError| StudyError::Config(e))?;
+        .map_err(|e| StudyError::Config(e.into()))?;
     let center = centerline_xy(profile.kappa(), profile.step());
     let lap: Vec<(f64, f64)> = center.iter().map(|&(x, y, _)| (x, y)).collect();
 

@@ -6,13 +6,13 @@
 //! parameter grid, resampling at whole metres, and widths re-referenced to the smoothed
 //! line.
 
+use super::csv::{read_rows, Row};
 use super::Profile;
-use crate::config::csv::read_rows;
-use crate::config::ConfigError;
+use super::TrackFileError;
 use crate::elementary::hypot;
 use std::path::Path;
 
-/// Target knot spacing of the periodic cubic B-spline [m].
+/// Target knot spacing of the periodic cubic B-spline \[m\].
 pub const KNOT_SPACING_M: f64 = 5.0;
 /// Weight of the third-order cyclic difference penalty.
 pub const PENALTY_LAMBDA: f64 = 10.0;
@@ -212,51 +212,140 @@ fn lerp(v: &[f64], (i, t): (usize, f64)) -> f64 {
     v[i] + t * (v[i + 1] - v[i])
 }
 
+/// The raw points of a closed centerline, parametrized by chord length.
+struct ChordParameters {
+    /// The points (x, y) [m].
+    points: Vec<[f64; 2]>,
+    /// Chord-length parameter u of every point (u_0 = 0) [m].
+    u_raw: Vec<f64>,
+    /// Total chord length, the closing chord back to the first point included [m].
+    period: f64,
+}
+
+/// The points of the raw rows with their chord-length parameters (widths positive, no
+/// point repeating its predecessor).
+fn chord_parameters(path: &Path, rows: &[Row<4>]) -> Result<ChordParameters, TrackFileError> {
+    let mut points = Vec::with_capacity(rows.len());
+    let mut u_raw = Vec::with_capacity(rows.len());
+    let mut period = 0.0;
+    for (i, r) in rows.iter().enumerate() {
+        let [x, y, wr, wl] = r.values;
+        if !(wr > 0.0 && wl > 0.0) {
+            return Err(TrackFileError::csv(
+                path,
+                r.line,
+                "track widths must be positive",
+            ));
+        }
+        if i > 0 {
+            let [px, py] = points[i - 1];
+            let chord = hypot(x - px, y - py);
+            if chord <= 0.0 {
+                return Err(TrackFileError::csv(
+                    path,
+                    r.line,
+                    "point repeats the previous one",
+                ));
+            }
+            period += chord;
+        }
+        u_raw.push(period);
+        points.push([x, y]);
+    }
+    let [x0, y0] = points[0];
+    let [xl, yl] = points[points.len() - 1];
+    period += hypot(x0 - xl, y0 - yl);
+    Ok(ChordParameters {
+        points,
+        u_raw,
+        period,
+    })
+}
+
+/// Arc length s(u) of the spline on a dense uniform u grid over one period (trapezoid rule),
+/// with the grid step du.
+fn arc_length(spline: &PeriodicSpline, period: f64) -> (Vec<f64>, f64) {
+    let n_dense = (period / DU_DENSE_M).ceil() as usize;
+    let du = period / n_dense as f64;
+    let speed = |k: usize| {
+        let d = spline.eval(k as f64 * du, 1);
+        hypot(d[0], d[1])
+    };
+    let mut s_dense = Vec::with_capacity(n_dense + 1);
+    s_dense.push(0.0);
+    let mut prev = speed(0);
+    for k in 1..=n_dense {
+        let v = speed(k);
+        s_dense.push(s_dense[k - 1] + 0.5 * (prev + v) * du);
+        prev = v;
+    }
+    (s_dense, du)
+}
+
+/// The right and left track widths at s = 0, 1, 2, ... (`n_out` rows): the raw widths
+/// re-referenced to the smoothed line, then interpolated periodically in s (`s_dense`: the
+/// arc length on the u grid of step `du`, ending at the lap length).
+fn smoothed_widths(
+    spline: &PeriodicSpline,
+    rows: &[Row<4>],
+    points: &[[f64; 2]],
+    u_raw: &[f64],
+    s_dense: &[f64],
+    du: f64,
+    n_out: usize,
+) -> (Vec<f64>, Vec<f64>) {
+    let n_dense = s_dense.len() - 1;
+    let lap = s_dense[n_dense];
+    let mut s_raw = Vec::with_capacity(points.len());
+    let mut w_right_raw = Vec::with_capacity(points.len());
+    let mut w_left_raw = Vec::with_capacity(points.len());
+    for ((&u, p), r) in u_raw.iter().zip(points).zip(rows) {
+        let c = spline.eval(u, 0);
+        let d1 = spline.eval(u, 1);
+        // Signed offset of the raw point from the smoothed line along the left normal.
+        let d_lat = ((p[0] - c[0]) * -d1[1] + (p[1] - c[1]) * d1[0]) / hypot(d1[0], d1[1]);
+        // s(u) on the uniform u grid.
+        let k = ((u / du).floor() as usize).min(n_dense - 1);
+        s_raw.push(lerp(s_dense, (k, u / du - k as f64)));
+        w_right_raw.push(r.values[2] - d_lat);
+        w_left_raw.push(r.values[3] + d_lat);
+    }
+    // Close the loop: the first raw point again at s = lap.
+    s_raw.push(lap);
+    w_right_raw.push(w_right_raw[0]);
+    w_left_raw.push(w_left_raw[0]);
+    let mut w_right = Vec::with_capacity(n_out);
+    let mut w_left = Vec::with_capacity(n_out);
+    let mut hint = 0;
+    for i in 0..n_out {
+        let s = i as f64 * DS_OUT_M;
+        let at = locate_walk(&s_raw, s, &mut hint);
+        w_right.push(lerp(&w_right_raw, at));
+        w_left.push(lerp(&w_left_raw, at));
+    }
+    (w_right, w_left)
+}
+
 impl Profile {
     /// Builds a smooth periodic profile on a 1 m grid from a raw closed centerline CSV
     /// (`# x_m,y_m,w_tr_right_m,w_tr_left_m`, the last point joins the first).
-    pub fn from_centerline(path: &Path) -> Result<Profile, ConfigError> {
+    pub fn from_centerline(path: &Path) -> Result<Profile, TrackFileError> {
         let rows = read_rows(path, &RAW_COLUMNS, false)?;
-        let mut points = Vec::with_capacity(rows.len());
-        let mut u_raw = Vec::with_capacity(rows.len());
-        let mut period = 0.0;
-        for (i, r) in rows.iter().enumerate() {
-            let [x, y, wr, wl] = r.values;
-            if !(wr > 0.0 && wl > 0.0) {
-                return Err(ConfigError::csv(
-                    path,
-                    r.line,
-                    "track widths must be positive",
-                ));
-            }
-            if i > 0 {
-                let [px, py] = points[i - 1];
-                let chord = hypot(x - px, y - py);
-                if chord <= 0.0 {
-                    return Err(ConfigError::csv(
-                        path,
-                        r.line,
-                        "point repeats the previous one",
-                    ));
-                }
-                period += chord;
-            }
-            u_raw.push(period);
-            points.push([x, y]);
-        }
-        let [x0, y0] = points[0];
-        let [xl, yl] = points[points.len() - 1];
-        period += hypot(x0 - xl, y0 - yl);
+        let ChordParameters {
+            points,
+            u_raw,
+            period,
+        } = chord_parameters(path, &rows)?;
         let m = (period / KNOT_SPACING_M).round() as usize;
         if period > 1.0e6 {
-            return Err(ConfigError::csv(
+            return Err(TrackFileError::csv(
                 path,
                 0,
                 format!("closed centerline of {period:.1} m is longer than 1000 km"),
             ));
         }
         if m < 8 || points.len() < 4 {
-            return Err(ConfigError::csv(
+            return Err(TrackFileError::csv(
                 path,
                 0,
                 format!(
@@ -267,29 +356,14 @@ impl Profile {
         }
         let spline =
             PeriodicSpline::fit(period, m, &u_raw, &points, PENALTY_LAMBDA).ok_or_else(|| {
-                ConfigError::csv(
+                TrackFileError::csv(
                     path,
                     0,
                     "smoothing system is singular (degenerate centerline)",
                 )
             })?;
-
-        // Arc length s(u) on a dense uniform u grid (trapezoid rule).
-        let n_dense = (period / DU_DENSE_M).ceil() as usize;
-        let du = period / n_dense as f64;
-        let speed = |k: usize| {
-            let d = spline.eval(k as f64 * du, 1);
-            hypot(d[0], d[1])
-        };
-        let mut s_dense = Vec::with_capacity(n_dense + 1);
-        s_dense.push(0.0);
-        let mut prev = speed(0);
-        for k in 1..=n_dense {
-            let v = speed(k);
-            s_dense.push(s_dense[k - 1] + 0.5 * (prev + v) * du);
-            prev = v;
-        }
-        let lap = s_dense[n_dense];
+        let (s_dense, du) = arc_length(&spline, period);
+        let lap = s_dense[s_dense.len() - 1];
 
         // Resample curvature at s = 0, 1, 2, ... < lap.
         let n_out = ((lap - 1e-9) / DS_OUT_M).ceil() as usize;
@@ -301,43 +375,17 @@ impl Profile {
             kappa.push(spline.curvature(u));
         }
 
-        // Widths re-referenced to the smoothed line, then interpolated periodically in s.
-        let mut s_raw = Vec::with_capacity(points.len());
-        let mut w_right_raw = Vec::with_capacity(points.len());
-        let mut w_left_raw = Vec::with_capacity(points.len());
-        for ((&u, p), r) in u_raw.iter().zip(&points).zip(&rows) {
-            let c = spline.eval(u, 0);
-            let d1 = spline.eval(u, 1);
-            // Signed offset of the raw point from the smoothed line along the left normal.
-            let d_lat = ((p[0] - c[0]) * -d1[1] + (p[1] - c[1]) * d1[0]) / hypot(d1[0], d1[1]);
-            // s(u) on the uniform u grid.
-            let k = ((u / du).floor() as usize).min(n_dense - 1);
-            s_raw.push(lerp(&s_dense, (k, u / du - k as f64)));
-            w_right_raw.push(r.values[2] - d_lat);
-            w_left_raw.push(r.values[3] + d_lat);
-        }
-        // Close the loop: the first raw point again at s = lap.
-        s_raw.push(lap);
-        w_right_raw.push(w_right_raw[0]);
-        w_left_raw.push(w_left_raw[0]);
-        let mut w_right = Vec::with_capacity(n_out);
-        let mut w_left = Vec::with_capacity(n_out);
-        let mut hint = 0;
-        for i in 0..n_out {
-            let s = i as f64 * DS_OUT_M;
-            let at = locate_walk(&s_raw, s, &mut hint);
-            w_right.push(lerp(&w_right_raw, at));
-            w_left.push(lerp(&w_left_raw, at));
-        }
+        let (w_right, w_left) =
+            smoothed_widths(&spline, &rows, &points, &u_raw, &s_dense, du, n_out);
         if let Some(i) = (0..n_out).find(|&i| !kappa[i].is_finite()) {
-            return Err(ConfigError::csv(
+            return Err(TrackFileError::csv(
                 path,
                 0,
                 format!("curvature is not finite at s = {i} m (degenerate centerline)"),
             ));
         }
         if let Some(i) = (0..n_out).find(|&i| !(w_right[i] > 0.0 && w_left[i] > 0.0)) {
-            return Err(ConfigError::csv(
+            return Err(TrackFileError::csv(
                 path,
                 0,
                 format!("a track width becomes non-positive at s = {i} m after smoothing"),

@@ -3,12 +3,15 @@
 //! [`Profile`] is a closed track on a uniform s grid (the canonical `*_profile.csv`, or
 //! smoothed from a raw centerline by [`Profile::from_centerline`]); [`Segment`] cuts a
 //! horizon out of it and samples a [`Road`] at the OCP nodes; [`BoundsOverride`] puts
-//! obstacles into the lateral bounds.
+//! obstacles into the lateral bounds. Loading a track file fails with a [`TrackFileError`].
 
 mod centerline;
+mod csv;
+mod error;
 mod profile;
 mod segment;
 
 pub use centerline::{KNOT_SPACING_M, PENALTY_LAMBDA};
+pub use error::TrackFileError;
 pub use profile::{Profile, PROFILE_COLUMNS};
 pub use segment::{piecewise_constant, BoundsOverride, Road, Segment};

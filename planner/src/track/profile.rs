@@ -1,7 +1,7 @@
 //! Periodic curvature/width profile on a uniform arc-length grid.
 
-use crate::config::csv::read_rows;
-use crate::config::ConfigError;
+use super::csv::read_rows;
+use super::TrackFileError;
 use std::path::Path;
 
 /// Column names (and header line) of a canonical profile CSV.
@@ -40,22 +40,22 @@ impl Profile {
     }
 
     /// Loads a canonical profile CSV (`s_m,kappa_1pm,w_right_m,w_left_m`), periodic with
-    /// `lap_length` [m].
+    /// `lap_length` \[m\].
     ///
     /// Checks the header, 4 finite numbers per row, s_0 = 0, s strictly increasing with a
     /// constant step, widths > 0, and `s_last < lap_length <= s_last + step`.
-    pub fn load(path: &Path, lap_length: f64) -> Result<Self, ConfigError> {
+    pub fn load(path: &Path, lap_length: f64) -> Result<Self, TrackFileError> {
         let rows = read_rows(path, &PROFILE_COLUMNS, true)?;
         let first = &rows[0];
         if first.values[0] != 0.0 {
-            return Err(ConfigError::csv(
+            return Err(TrackFileError::csv(
                 path,
                 first.line,
                 format!("s_m = {}: the first row must be at s = 0", first.values[0]),
             ));
         }
         if rows.len() < 2 {
-            return Err(ConfigError::csv(
+            return Err(TrackFileError::csv(
                 path,
                 0,
                 "a profile needs at least two rows",
@@ -73,14 +73,14 @@ impl Profile {
             if i > 0 {
                 let prev = rows[i - 1].values[0];
                 if s <= prev {
-                    return Err(ConfigError::csv(
+                    return Err(TrackFileError::csv(
                         path,
                         r.line,
                         format!("s_m = {s}: must be strictly increasing (previous row has {prev})"),
                     ));
                 }
                 if ((s - prev) - step).abs() > 1e-6 * step {
-                    return Err(ConfigError::csv(
+                    return Err(TrackFileError::csv(
                         path,
                         r.line,
                         format!(
@@ -92,7 +92,7 @@ impl Profile {
             }
             for (name, w) in [("w_right_m", wr), ("w_left_m", wl)] {
                 if w.is_nan() || w <= 0.0 {
-                    return Err(ConfigError::csv(
+                    return Err(TrackFileError::csv(
                         path,
                         r.line,
                         format!("{name} = {w}: must be positive"),
@@ -108,7 +108,7 @@ impl Profile {
             && lap_length > s_last
             && lap_length <= s_last + step * (1.0 + 1e-9))
         {
-            return Err(ConfigError::invalid(
+            return Err(TrackFileError::invalid(
                 path,
                 "lap_length_m",
                 lap_length,
@@ -123,7 +123,7 @@ impl Profile {
         ))
     }
 
-    /// (kappa [1/m], w_right [m], w_left [m]) at track arc length `s`, wrapped modulo the lap.
+    /// (kappa [1/m], w_right \[m\], w_left \[m\]) at track arc length `s`, wrapped modulo the lap.
     pub fn sample(&self, s: f64) -> (f64, f64, f64) {
         let n = self.kappa.len();
         let u = s.rem_euclid(self.lap);
@@ -140,12 +140,12 @@ impl Profile {
         (lerp(&self.kappa), lerp(&self.w_right), lerp(&self.w_left))
     }
 
-    /// Lap length [m] (the period).
+    /// Lap length \[m\] (the period).
     pub fn lap_length(&self) -> f64 {
         self.lap
     }
 
-    /// Row spacing [m].
+    /// Row spacing \[m\].
     pub fn step(&self) -> f64 {
         self.step
     }
@@ -160,17 +160,17 @@ impl Profile {
         &self.kappa
     }
 
-    /// Right width at the rows [m].
+    /// Right width at the rows \[m\].
     pub fn w_right(&self) -> &[f64] {
         &self.w_right
     }
 
-    /// Left width at the rows [m].
+    /// Left width at the rows \[m\].
     pub fn w_left(&self) -> &[f64] {
         &self.w_left
     }
 
-    /// Lap integral of kappa [rad] (trapezoid rule over the closed loop): the net heading change.
+    /// Lap integral of kappa \[rad\] (trapezoid rule over the closed loop): the net heading change.
     pub fn total_turning(&self) -> f64 {
         let n = self.kappa.len();
         let inner: f64 = (0..n - 1)

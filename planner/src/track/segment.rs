@@ -5,26 +5,26 @@ use super::Profile;
 /// Lateral bounds replaced on the closed interval `s_from <= s <= s_to` (local horizon s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoundsOverride {
-    /// Start of the interval [m], inclusive.
+    /// Start of the interval \[m\], inclusive.
     pub s_from: f64,
-    /// End of the interval [m], inclusive.
+    /// End of the interval \[m\], inclusive.
     pub s_to: f64,
-    /// Right bound inside the interval [m].
+    /// Right bound inside the interval \[m\].
     pub e_min: f64,
-    /// Left bound inside the interval [m].
+    /// Left bound inside the interval \[m\].
     pub e_max: f64,
 }
 
 /// Curvature and lateral bounds at the N + 1 nodes s_k = k * ds of a horizon.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Road {
-    /// Node spacing ds [m].
+    /// Node spacing ds \[m\].
     pub ds: f64,
     /// k_ref(s_k) [1/m].
     pub kappa: Vec<f64>,
-    /// e_min(s_k) [m].
+    /// e_min(s_k) \[m\].
     pub e_min: Vec<f64>,
-    /// e_max(s_k) [m].
+    /// e_max(s_k) \[m\].
     pub e_max: Vec<f64>,
 }
 
@@ -53,7 +53,7 @@ impl Road {
         Self::from_fn(length, n_intervals, |_| (kappa, e_min, e_max))
     }
 
-    /// Local arc length s_k = k * ds of node k [m].
+    /// Local arc length s_k = k * ds of node k \[m\].
     pub fn node_s(&self, k: usize) -> f64 {
         k as f64 * self.ds
     }
@@ -82,9 +82,9 @@ impl Road {
 /// A horizon of `length` metres and `n_intervals` steps starting at track arc length `s_start`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
-    /// Track s of node 0 [m] (wrapped modulo the lap when sampled).
+    /// Track s of node 0 \[m\] (wrapped modulo the lap when sampled).
     pub s_start: f64,
-    /// Horizon length [m].
+    /// Horizon length \[m\].
     pub length: f64,
     /// Number of intervals N.
     pub n_intervals: usize,

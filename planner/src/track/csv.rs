@@ -1,7 +1,6 @@
 //! A minimal numeric CSV reader with line numbers (no quoting: the track files need none).
 
-use super::fields::read_text;
-use super::ConfigError;
+use super::TrackFileError;
 use std::path::Path;
 
 /// One data row: its 1-based line number in the file and its `N` values (all finite).
@@ -20,8 +19,11 @@ pub(crate) fn read_rows<const N: usize>(
     file: &Path,
     columns: &[&str; N],
     header: bool,
-) -> Result<Vec<Row<N>>, ConfigError> {
-    let text = read_text(file)?;
+) -> Result<Vec<Row<N>>, TrackFileError> {
+    let text = std::fs::read_to_string(file).map_err(|source| TrackFileError::Io {
+        file: file.to_path_buf(),
+        source,
+    })?;
     let mut rows = Vec::new();
     let mut need_header = header;
     for (i, raw) in text.lines().enumerate() {
@@ -33,7 +35,7 @@ pub(crate) fn read_rows<const N: usize>(
         let fields: Vec<&str> = trimmed.split(',').map(str::trim).collect();
         if need_header {
             if fields.as_slice() != columns.as_slice() {
-                return Err(ConfigError::csv(
+                return Err(TrackFileError::csv(
                     file,
                     line,
                     format!("header must be `{}`, found `{trimmed}`", columns.join(",")),
@@ -43,7 +45,7 @@ pub(crate) fn read_rows<const N: usize>(
             continue;
         }
         if fields.len() != N {
-            return Err(ConfigError::csv(
+            return Err(TrackFileError::csv(
                 file,
                 line,
                 format!(
@@ -56,14 +58,14 @@ pub(crate) fn read_rows<const N: usize>(
         let mut values = [0.0; N];
         for (k, (v, name)) in values.iter_mut().zip(columns).enumerate() {
             let x: f64 = fields[k].parse().map_err(|_| {
-                ConfigError::csv(
+                TrackFileError::csv(
                     file,
                     line,
                     format!("{name} = `{}`: not a number", fields[k]),
                 )
             })?;
             if !x.is_finite() {
-                return Err(ConfigError::csv(
+                return Err(TrackFileError::csv(
                     file,
                     line,
                     format!("{name} = {x}: must be finite"),
@@ -74,14 +76,14 @@ pub(crate) fn read_rows<const N: usize>(
         rows.push(Row { line, values });
     }
     if need_header {
-        return Err(ConfigError::csv(
+        return Err(TrackFileError::csv(
             file,
             0,
             format!("empty file: expected the header `{}`", columns.join(",")),
         ));
     }
     if rows.is_empty() {
-        return Err(ConfigError::csv(file, 0, "no data rows"));
+        return Err(TrackFileError::csv(file, 0, "no data rows"));
     }
     Ok(rows)
 }

@@ -1,0 +1,95 @@
+//! The bounds of a transcription, recomputed in place from the spec: the variable bounds
+//! of [`variable_bounds`], the initial-condition rows ([`initial_row_bounds`]), defect rows
+//! = 0, front friction rows >= 0 (R9), saturation rows <= eps_sat (R5, scaled) and the
+//! control-rate rows ([`rate_row_bounds`]).
+
+use super::error::check_node_vectors;
+use super::{DefectScheme, Transcription, TranscriptionError};
+use crate::ocp::path_constraints::{
+    initial_row_bounds, rate_row_bounds, variable_bounds, FRICTION_ROWS, INITIAL_ROWS, RATE_ROWS,
+    SATURATION_ROWS,
+};
+use crate::ocp::scaling::saturation_scale;
+use crate::ocp::spec::InitialState;
+
+/// Upper bound of the rear saturation row at node 0 with a fixed initial state (scaled;
+/// sigma - sigma_sl <= 100, never active).
+const SATURATION_FIXED_X0_BOUND: f64 = 1e3;
+
+impl<S: DefectScheme, const N: usize> Transcription<S, N> {
+    /// Recomputes the variable and row bounds from the spec in place (allocation-free).
+    pub(super) fn refresh_bounds(&mut self) {
+        let mut x_l = std::mem::take(&mut self.x_l);
+        let mut x_u = std::mem::take(&mut self.x_u);
+        let mut g_l = std::mem::take(&mut self.g_l);
+        let mut g_u = std::mem::take(&mut self.g_u);
+        self.compute_bounds(&mut x_l, &mut x_u, &mut g_l, &mut g_u);
+        self.x_l = x_l;
+        self.x_u = x_u;
+        self.g_l = g_l;
+        self.g_u = g_u;
+    }
+
+    /// Re-uses this instance for a new road of the same size: replaces k_ref, e_min and e_max
+    /// at the N + 1 nodes in the spec and updates the bounds. Allocation-free; the
+    /// constraint structure is unchanged (the solver reads bounds at the start of each
+    /// solve). On a length mismatch nothing is changed.
+    pub fn update_road(
+        &mut self,
+        kappa: &[f64],
+        e_min: &[f64],
+        e_max: &[f64],
+    ) -> Result<(), TranscriptionError> {
+        check_node_vectors::<N>([
+            ("kappa", kappa.len()),
+            ("e_min", e_min.len()),
+            ("e_max", e_max.len()),
+        ])?;
+        self.spec.kappa.copy_from_slice(kappa);
+        self.spec.e_min.copy_from_slice(e_min);
+        self.spec.e_max.copy_from_slice(e_max);
+        self.refresh_bounds();
+        Ok(())
+    }
+
+    /// Switches the initial-state treatment (Free or Fixed(x0)) without changing the
+    /// constraint structure: all nine initial-condition rows always exist and only their
+    /// bounds change (see [`initial_row_bounds`]). Allocation-free.
+    pub fn set_initial(&mut self, initial: InitialState) {
+        self.spec.initial = initial;
+        self.refresh_bounds();
+    }
+
+    /// Writes the variable bounds and the row bounds of the spec.
+    fn compute_bounds(&self, x_l: &mut [f64], x_u: &mut [f64], g_l: &mut [f64], g_u: &mut [f64]) {
+        let p = &self.spec.vehicle;
+        variable_bounds(&self.layout, &self.spec, x_l, x_u);
+        for (r, &i) in INITIAL_ROWS.iter().enumerate() {
+            (g_l[r], g_u[r]) = initial_row_bounds(&self.spec, i);
+        }
+        for (k, st) in self.stages.iter().enumerate() {
+            g_l[st.row_defect..st.row_defect + S::ROWS].fill(0.0);
+            g_u[st.row_defect..st.row_defect + S::ROWS].fill(0.0);
+            g_l[st.row_friction..st.row_friction + FRICTION_ROWS].fill(0.0);
+            g_u[st.row_friction..st.row_friction + FRICTION_ROWS].fill(f64::INFINITY);
+            if self.spec.enforce_tire_saturation {
+                g_l[st.row_sat..st.row_sat + SATURATION_ROWS].fill(f64::NEG_INFINITY);
+                g_u[st.row_sat..st.row_sat + SATURATION_ROWS]
+                    .fill(p.eps_sat / saturation_scale(&self.spec.initial));
+                // With a fixed (measured) x_0 the rear slip at node 0 depends on x_0 alone: a
+                // car that is already sliding would make the problem infeasible whatever the
+                // controls. That row gets a bound it never reaches (the front row stays: the
+                // steering controls its slip).
+                if k == 0 && matches!(self.spec.initial, InitialState::Fixed(_)) {
+                    g_u[st.row_sat + 1] = SATURATION_FIXED_X0_BOUND;
+                }
+            }
+            if k >= 1 {
+                rate_row_bounds(
+                    &mut g_l[st.row_rate..st.row_rate + RATE_ROWS],
+                    &mut g_u[st.row_rate..st.row_rate + RATE_ROWS],
+                );
+            }
+        }
+    }
+}

@@ -14,8 +14,8 @@ use planner::model::{ix, NU, NX};
 
 /// Wire version of every message in this module; bump on any layout change.
 pub const MSG_VERSION: u32 = 2;
-/// Horizon intervals N carried by a [`Trajectory`] (the paper's N = 100).
-pub const HORIZON_N: usize = 100;
+/// Horizon intervals N carried by a [`Trajectory`]: the planner's [`planner::HORIZON`].
+pub const HORIZON_N: usize = planner::HORIZON;
 
 /// Identifies the road (scenario) a message belongs to: FNV-1a of the scenario file bytes.
 pub type RoadId = u64;

@@ -4,6 +4,17 @@
 //! paper eq. 3) → [`ip`] (interior-point solver) → trajectory. [`model`] holds the
 //! single-track vehicle model of paper eq. (1); [`guess`] the equilibrium initial guess
 //! of paper Sec. V.
+//!
+//! # Cargo features
+//!
+//! The solver core (everything above, plus [`plan`], [`record`], [`stats`]) needs neither
+//! a command-line parser nor a plotting library; two features add them:
+//! - `plot`: the PNG figures of a trajectory (`plot`, with the `plotters` dependency);
+//! - `cli` (default; enables `plot`): the reproducible studies of the paper (`study`) and
+//!   the `trajopt` executable (with the `clap` dependency).
+//!
+//! Crates that only solve (the planner process, the benchmarks) depend on this one with
+//! `default-features = false`.
 #![deny(missing_docs)]
 // Numerical kernels index several parallel arrays at once; iterators would obscure them.
 #![allow(clippy::needless_range_loop)]
@@ -16,8 +27,11 @@ pub mod ip;
 pub mod model;
 pub mod ocp;
 pub mod plan;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod record;
+pub mod stats;
+#[cfg(feature = "cli")]
 pub mod study;
 pub mod track;
 pub mod trajectory;

@@ -21,7 +21,7 @@ pub const FIGURE_SIZE: (u32, u32) = (1400, 1000);
 const LEFT_WIDTH: u32 = 700;
 
 /// Font family every text of the figure uses (registered from the bundled DejaVu Sans).
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// A polyline in the plane, (x, y) [m] per node.
 pub type Polyline = Vec<(f64, f64)>;
@@ -44,7 +44,7 @@ pub enum PlotError {
 }
 
 /// Converts any plotters (or backend) error into [`PlotError::Draw`].
-fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
+pub(crate) fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError::Draw(e.to_string())
 }
 
@@ -420,8 +420,20 @@ where
         .draw()
         .map_err(draw_err)?;
 
-    // Horizontal colour bar of V.
-    let mut cb = ChartBuilder::on(&bar)
+    draw_speed_bar(&bar, v_lo, v_hi)
+}
+
+/// Draws the horizontal colour bar of the speed V over [v_lo, v_hi] on `bar`, with the
+/// exact extremes beside its ends.
+fn draw_speed_bar<DB: DrawingBackend>(
+    bar: &DrawingArea<DB, Shift>,
+    v_lo: f64,
+    v_hi: f64,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let mut cb = ChartBuilder::on(bar)
         .margin_left(140)
         .margin_right(140)
         .margin_top(10)

@@ -1,12 +1,12 @@
-//! The study library: the median and the shipped segment reference table, the NRMSE
+//! The study library: the shipped segment reference table, the NRMSE
 //! definition, eigen-analysis of eq. (7) with participation factors on matrices with known
 //! answers, and the stiffness of the model at a real state.
 
 use planner::model::params::lc500;
 use planner::model::{NX, STATE_NAMES};
 use planner::study::integrators::{nrmse_pct, Integrator};
+use planner::study::segments;
 use planner::study::stiffness::{analyze, analyze_jacobian, spatial_jacobian};
-use planner::study::{median, segments};
 
 #[test]
 fn nrmse_is_rms_error_over_reference_range() {
@@ -123,13 +123,6 @@ fn model_jacobian_and_analysis_at_a_cornering_state() {
     assert!(study.peak_dominant_state.is_some());
     // Length mismatch is an error, not a panic.
     assert!(analyze(&p, &[x], &[u], &[kappa], 2.6).is_err());
-}
-
-#[test]
-fn median_of_odd_and_even_counts() {
-    assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
-    assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
-    assert!(median(&mut []).is_nan());
 }
 
 #[test]

@@ -1,4 +1,4 @@
-//! Replay of planner recordings (issue 5): re-solve every recorded input with the recorded
+//! Replay of planner recordings: re-solve every recorded input with the recorded
 //! configuration on a pinned core, check the outputs are bit-identical, and report latency
 //! and jitter from an HDR histogram ([`run`]); summarise a file ([`info`]); record a 10 Hz
 //! replanning drive along the oval ([`oval`]); draw the latency figure ([`plot`]).
@@ -13,5 +13,5 @@ pub mod plot;
 pub mod run;
 pub mod stats;
 
-/// The horizon every shipped scenario uses (the planner is compiled for N = 100).
-pub const N: usize = 100;
+/// The horizon every recording is replayed with: the planner's [`planner::HORIZON`].
+pub const N: usize = planner::HORIZON;

@@ -1,5 +1,5 @@
 //! `replay record-oval`: a 10 Hz replanning drive along the oval, recorded with the
-//! [`plan_record::Recorder`] (a stand-in for the IPC planner process until it exists).
+//! [`plan_record::Recorder`] in one process (no IPC planner and tracker processes needed).
 //!
 //! The oval is solved once from a free start; plan i then starts at the state that
 //! trajectory reaches at t = i / rate (linear interpolation between nodes), with that

@@ -7,6 +7,7 @@
 
 mod error;
 mod fields;
+pub mod paths;
 mod scenario;
 mod solver;
 mod tracks;

@@ -6,12 +6,14 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{median, StudyError};
+use super::StudyError;
 use crate::config::load_scenario;
 use crate::guess::GuessKind;
 use crate::ip::{BarrierRule, Settings};
 use crate::model::VehicleParams;
 use crate::plan::Planner;
+use crate::stats::median;
+use crate::HORIZON;
 
 /// One rule's result.
 #[derive(Debug, Clone, Serialize)]
@@ -49,7 +51,7 @@ pub fn run(
     }
     let mut spec = load_scenario(scenario, select, *vehicle)?;
     spec.steering_slew_weight = steering_slew_weight;
-    let mut planner = Planner::<{ super::segments::N }>::new(spec, settings)?;
+    let mut planner = Planner::<HORIZON>::new(spec, settings)?;
     let mut out = Vec::with_capacity(BarrierRule::ALL.len());
     for rule in BarrierRule::ALL {
         let mut s = settings;

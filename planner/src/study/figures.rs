@@ -8,16 +8,10 @@ use plotters::prelude::*;
 use super::integrators::IntegratorStudy;
 use super::stiffness::StiffnessStudy;
 use crate::model::{NX, STATE_NAMES};
-use crate::plot::{ensure_font, PlotError};
+use crate::plot::{draw_err, ensure_font, PlotError, FONT};
 
-/// Font family registered by [`ensure_font`].
-const FONT: &str = "sans-serif";
 /// Size of both figures [px].
 pub const STUDY_FIGURE_SIZE: (u32, u32) = (1200, 800);
-
-fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
-    PlotError::Draw(e.to_string())
-}
 
 /// Log-axis range covering `v` (positive finite values) with a margin of a factor 2 below
 /// and `up` above.

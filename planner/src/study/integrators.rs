@@ -28,6 +28,7 @@ use crate::ocp::{
     ImplicitEuler, LinearMultistep, OcpSpec, Transcription,
 };
 use crate::plan::DEFAULT_GUESS_SPEED;
+use crate::stats::median;
 
 /// One transcription of the study.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -306,7 +307,7 @@ fn run_scheme<S: DefectScheme, const N: usize>(
         status: info.status.name().to_string(),
         success: info.status.is_success(),
         iterations: info.iterations,
-        median_ms: super::median(&mut times),
+        median_ms: median(&mut times),
         solve_ms_all: times,
         t_final: states[N][ix::T],
         max_violation: info.max_violation,

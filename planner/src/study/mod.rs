@@ -68,20 +68,6 @@ pub enum StudyError {
     Invalid(String),
 }
 
-/// Median of the samples (mean of the two middle ones for an even count); NaN when empty.
-pub fn median(samples: &mut [f64]) -> f64 {
-    if samples.is_empty() {
-        return f64::NAN;
-    }
-    samples.sort_by(f64::total_cmp);
-    let n = samples.len();
-    if n % 2 == 1 {
-        samples[n / 2]
-    } else {
-        0.5 * (samples[n / 2 - 1] + samples[n / 2])
-    }
-}
-
 /// The optimality error of one logged iteration: max(inf_pr, scaled inf_du, scaled
 /// complementarity), the quantity of the paper's Fig. 5.
 pub fn optimality_error(l: &crate::ip::IterLog) -> f64 {

@@ -10,12 +10,8 @@ use super::segments::SegmentsStudy;
 use super::StudyError;
 use crate::config::data_root_of;
 use crate::model::ix;
-use crate::plot::{centerline_xy, ensure_font, PlotError};
+use crate::plot::{centerline_xy, draw_err, ensure_font, FONT};
 use crate::track::Profile;
-
-fn draw_err<E: std::fmt::Display>(e: E) -> StudyError {
-    StudyError::Plot(PlotError::Draw(e.to_string()))
-}
 
 /// Convergence figure: two panels (equilibrium guess, zero guess), one log-scale curve of
 /// the optimality error per segment.
@@ -33,10 +29,7 @@ pub fn plot_convergence(study: &SegmentsStudy, path: &Path) -> Result<(), StudyE
             .unwrap_or(1)
             .max(2);
         let mut chart = ChartBuilder::on(area)
-            .caption(
-                format!("optimality error, {guess} guess"),
-                ("sans-serif", 22),
-            )
+            .caption(format!("optimality error, {guess} guess"), (FONT, 22))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
@@ -71,7 +64,8 @@ pub fn plot_convergence(study: &SegmentsStudy, path: &Path) -> Result<(), StudyE
             .draw()
             .map_err(draw_err)?;
     }
-    root.present().map_err(draw_err)
+    root.present().map_err(draw_err)?;
+    Ok(())
 }
 
 /// The parts of a segments file the path figure needs (other keys are ignored here; the
@@ -172,7 +166,7 @@ pub fn plot_paths(scenario: &Path, study: &SegmentsStudy, path: &Path) -> Result
     let mut chart = ChartBuilder::on(&root)
         .caption(
             format!("{}: segment paths (equilibrium guess)", track.name),
-            ("sans-serif", 24),
+            (FONT, 24),
         )
         .margin(16)
         .x_label_area_size(40)
@@ -204,7 +198,7 @@ pub fn plot_paths(scenario: &Path, study: &SegmentsStudy, path: &Path) -> Result
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color));
         if let Some(p) = first {
             chart
-                .draw_series(std::iter::once(Text::new(name, p, ("sans-serif", 16))))
+                .draw_series(std::iter::once(Text::new(name, p, (FONT, 16))))
                 .map_err(draw_err)?;
         }
     }
@@ -214,5 +208,6 @@ pub fn plot_paths(scenario: &Path, study: &SegmentsStudy, path: &Path) -> Result
         .border_style(BLACK)
         .draw()
         .map_err(draw_err)?;
-    root.present().map_err(draw_err)
+    root.present().map_err(draw_err)?;
+    Ok(())
 }

@@ -9,16 +9,15 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{median, optimality_error, StudyError};
+use super::{optimality_error, StudyError};
 use crate::config::{data_root_of, list_selections, load_scenario};
 use crate::guess::GuessKind;
 use crate::ip::{Settings, StepKind};
 use crate::model::VehicleParams;
 use crate::plan::Planner;
+use crate::stats::median;
 use crate::trajectory::Trajectory;
-
-/// The horizon of the shipped segments (paper: N = 100).
-pub const N: usize = 100;
+use crate::HORIZON;
 
 /// Reference table, relative to the data root (shipped with the product).
 pub const REFERENCE_CSV: &str = "reference/segments_ie_ipopt.csv";
@@ -129,7 +128,7 @@ pub fn run(
     for name in &names {
         let mut spec = load_scenario(scenario, Some(name), *vehicle)?;
         spec.steering_slew_weight = steering_slew_weight;
-        let mut planner = Planner::<N>::new(spec, settings)?;
+        let mut planner = Planner::<HORIZON>::new(spec, settings)?;
         let refrow = reference
             .as_ref()
             .and_then(|r| r.iter().find(|(n, _, _)| n == name));

@@ -12,6 +12,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use plan_record::Recording;
+use planner::config::paths::resolve_path;
 use replay::oval::{record_oval, OvalOptions};
 use replay::run::{run, RunOptions};
 
@@ -90,20 +91,6 @@ fn main() -> ExitCode {
             eprintln!("replay: error: {msg}");
             ExitCode::from(2)
         }
-    }
-}
-
-/// A default path relative to the working directory, or else to the repository this
-/// binary was built from.
-fn resolve(path: &Path) -> PathBuf {
-    if path.exists() || path.is_absolute() {
-        return path.to_path_buf();
-    }
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path);
-    if repo.exists() {
-        repo
-    } else {
-        path.to_path_buf()
     }
 }
 
@@ -197,9 +184,9 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                     .map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
             }
             let opts = OvalOptions {
-                scenario: resolve(&scenario),
-                vehicle: resolve(&vehicle),
-                solver: resolve(&solver),
+                scenario: resolve_path(&scenario),
+                vehicle: resolve_path(&vehicle),
+                solver: resolve_path(&solver),
                 plans,
                 rate_hz,
                 out: out.clone(),

@@ -1,0 +1,248 @@
+//! `trajopt closed-loop`: starts `planner_proc` and `tracker_proc` (ipc crate) on one
+//! iceoryx2 service prefix, waits for the tracker to finish the drive, stops the planner by
+//! closing its stdin, and summarises both processes' final JSON lines.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::paths::resolve;
+
+#[derive(clap::Args, Debug)]
+pub struct ClosedLoopArgs {
+    /// Scenario file (a closed road such as the oval).
+    #[arg(long, default_value = "config/scenarios/oval.toml")]
+    scenario: PathBuf,
+    /// Vehicle file.
+    #[arg(long, default_value = "config/vehicles/lc500.toml")]
+    vehicle: PathBuf,
+    /// Solver settings file.
+    #[arg(long, default_value = "config/solver.toml")]
+    solver: PathBuf,
+    /// Distance to drive [m] (0: one lap).
+    #[arg(long, default_value_t = 0.0)]
+    distance_m: f64,
+    /// Simulated-time cap [s].
+    #[arg(long, default_value_t = 60.0)]
+    duration_s: f64,
+    /// Replanning rate [Hz].
+    #[arg(long, default_value_t = 10.0)]
+    rate_hz: f64,
+    /// iceoryx2 service prefix (default: unique per run).
+    #[arg(long)]
+    service_prefix: Option<String>,
+    /// Folder holding planner_proc and tracker_proc (default: next to this executable).
+    #[arg(long)]
+    bin_dir: Option<PathBuf>,
+    /// Print exactly one JSON object on stdout (summary goes to stderr).
+    #[arg(long)]
+    json: bool,
+    /// Record the planner's inputs and outputs to this MCAP file (`planner_proc --record`).
+    #[arg(long)]
+    record: Option<PathBuf>,
+}
+
+/// Kills a child on drop unless it was waited for (no orphans on error paths).
+struct ChildGuard(Option<Child>);
+
+impl Drop for ChildGuard {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// Waits for a child up to `limit`; kills it on timeout. Returns (exit ok, stdout).
+fn wait_child(guard: &mut ChildGuard, limit: Duration) -> Result<(bool, String), String> {
+    use std::io::Read;
+    let Some(mut child) = guard.0.take() else {
+        return Err("child already reaped".into());
+    };
+    let start = Instant::now();
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) => {
+                let mut out = String::new();
+                if let Some(mut so) = child.stdout.take() {
+                    let _ = so.read_to_string(&mut out);
+                }
+                return Ok((status.success(), out));
+            }
+            Ok(None) if start.elapsed() < limit => std::thread::sleep(Duration::from_millis(50)),
+            Ok(None) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!(
+                    "timed out after {:.0} s; killed",
+                    limit.as_secs_f64()
+                ));
+            }
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+}
+
+/// The last line of `out` that parses as JSON (Null when none does).
+fn last_json(out: &str) -> serde_json::Value {
+    out.lines()
+        .rev()
+        .find_map(|l| serde_json::from_str(l).ok())
+        .unwrap_or(serde_json::Value::Null)
+}
+
+/// The paths of `planner_proc` and `tracker_proc` in `--bin-dir`, or else next to this
+/// executable.
+fn executables(args: &ClosedLoopArgs) -> Result<(PathBuf, PathBuf), String> {
+    let bin_dir = match args.bin_dir.clone() {
+        Some(d) => d,
+        None => std::env::current_exe()
+            .ok()
+            .and_then(|p| p.parent().map(Path::to_path_buf))
+            .ok_or("cannot locate this executable's folder; pass --bin-dir")?,
+    };
+    let exe = |name: &str| -> Result<PathBuf, String> {
+        let p = bin_dir.join(name);
+        if p.is_file() {
+            Ok(p)
+        } else {
+            Err(format!(
+                "{} not found (build it with `cargo build -p ipc --bins` in the same profile, or pass --bin-dir)",
+                p.display()
+            ))
+        }
+    };
+    Ok((exe("planner_proc")?, exe("tracker_proc")?))
+}
+
+/// Starts the planner, then the tracker, both on the input files and service `prefix`.
+fn spawn_pair(
+    args: &ClosedLoopArgs,
+    (planner_exe, tracker_exe): &(PathBuf, PathBuf),
+    prefix: &str,
+) -> Result<(ChildGuard, ChildGuard), String> {
+    let files = |c: &mut Command| {
+        c.arg("--scenario")
+            .arg(resolve(&args.scenario))
+            .arg("--vehicle")
+            .arg(resolve(&args.vehicle))
+            .arg("--solver")
+            .arg(resolve(&args.solver))
+            .arg("--service-prefix")
+            .arg(prefix)
+            .arg("--exit-on-stdin-eof")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit());
+    };
+    let mut pc = Command::new(planner_exe);
+    files(&mut pc);
+    pc.arg("--rate-hz").arg(args.rate_hz.to_string());
+    if let Some(path) = &args.record {
+        pc.arg("--record").arg(path);
+    }
+    let planner = ChildGuard(Some(
+        pc.spawn()
+            .map_err(|e| format!("{}: {e}", planner_exe.display()))?,
+    ));
+    let mut tc = Command::new(tracker_exe);
+    files(&mut tc);
+    tc.arg("--duration-s")
+        .arg(args.duration_s.to_string())
+        .arg("--distance-m")
+        .arg(args.distance_m.to_string());
+    let tracker = ChildGuard(Some(
+        tc.spawn()
+            .map_err(|e| format!("{}: {e}", tracker_exe.display()))?,
+    ));
+    Ok((planner, tracker))
+}
+
+/// Runs the closed loop and prints its summary (one JSON object with `--json`).
+pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
+    if !(args.duration_s > 0.0 && args.duration_s <= 3600.0 && args.distance_m >= 0.0) {
+        return Err("need 0 < --duration-s <= 3600 and --distance-m >= 0".into());
+    }
+    let exes = executables(&args)?;
+    let prefix = args.service_prefix.clone().unwrap_or_else(|| {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        format!("trajopt-{}-{nanos}", std::process::id())
+    });
+    let (mut planner, mut tracker) = spawn_pair(&args, &exes, &prefix)?;
+    // Simulated time runs at wall-clock speed; the first plan may take a while on a loaded machine.
+    let limit = Duration::from_secs_f64(args.duration_s + 180.0);
+    let (tracker_ok, tracker_out) = wait_child(&mut tracker, limit)?;
+    // Stop the planner by closing its stdin.
+    if let Some(c) = planner.0.as_mut() {
+        drop(c.stdin.take());
+    }
+    let (planner_ok, planner_out) = wait_child(&mut planner, Duration::from_secs(30))?;
+    let t = last_json(&tracker_out);
+    let p = last_json(&planner_out);
+    if !tracker_ok || t.is_null() {
+        return Err("tracker_proc failed (see its log above)".into());
+    }
+    if !planner_ok || p.is_null() {
+        return Err("planner_proc failed (see its log above)".into());
+    }
+    let obj = summary_json(&args, &prefix, t, p);
+    let summary = summary_text(&obj);
+    if args.json {
+        eprintln!("{summary}");
+        println!("{obj}");
+    } else {
+        println!("{summary}");
+    }
+    Ok(())
+}
+
+/// The JSON summary: the tracker's figures of merit at the top level, both processes'
+/// final reports in full under `tracker` and `planner`.
+fn summary_json(
+    args: &ClosedLoopArgs,
+    prefix: &str,
+    t: serde_json::Value,
+    p: serde_json::Value,
+) -> serde_json::Value {
+    let f = |k: &str| t.get(k).cloned().unwrap_or(serde_json::Value::Null);
+    serde_json::json!({
+        "scenario": resolve(&args.scenario).display().to_string(),
+        "service_prefix": prefix,
+        "laps_or_distance_m": f("laps_or_distance_m"),
+        "laps": f("laps"),
+        "plans_received": f("plans_received"),
+        "max_lateral_error_m": f("max_lateral_error_m"),
+        "rms_lateral_error_m": f("rms_lateral_error_m"),
+        "max_sideslip_error_rad": f("max_sideslip_error_rad"),
+        "lane_kept": f("lane_kept"),
+        "plan_latency_ms_p50": f("plan_latency_ms_p50"),
+        "plan_latency_ms_p99": f("plan_latency_ms_p99"),
+        "ipc_latency_us_p50": f("ipc_latency_us_p50"),
+        "ipc_latency_us_p99": f("ipc_latency_us_p99"),
+        "tracker": t,
+        "planner": p,
+    })
+}
+
+/// The one-line human summary of [`summary_json`]'s object.
+fn summary_text(obj: &serde_json::Value) -> String {
+    format!(
+        "closed loop: {:.1} m ({:.2} laps), {} plans, lateral error vs plan max {:.3} m rms {:.3} m, \
+         max sideslip error {:.3} rad, lane kept {}; plan latency p50 {:.1} ms p99 {:.1} ms; \
+         IPC latency p50 {:.1} us p99 {:.1} us",
+        obj["laps_or_distance_m"].as_f64().unwrap_or(f64::NAN),
+        obj["laps"].as_f64().unwrap_or(f64::NAN),
+        obj["plans_received"],
+        obj["max_lateral_error_m"].as_f64().unwrap_or(f64::NAN),
+        obj["rms_lateral_error_m"].as_f64().unwrap_or(f64::NAN),
+        obj["max_sideslip_error_rad"].as_f64().unwrap_or(f64::NAN),
+        obj["lane_kept"],
+        obj["plan_latency_ms_p50"].as_f64().unwrap_or(f64::NAN),
+        obj["plan_latency_ms_p99"].as_f64().unwrap_or(f64::NAN),
+        obj["ipc_latency_us_p50"].as_f64().unwrap_or(f64::NAN),
+        obj["ipc_latency_us_p99"].as_f64().unwrap_or(f64::NAN),
+    )
+}

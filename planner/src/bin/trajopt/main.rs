@@ -1,0 +1,71 @@
+//! `trajopt`: command-line front end of the planner.
+//!
+//! `trajopt solve` solves one scenario (the oval by default) from the equilibrium or zero
+//! guess, prints a summary (stderr with `--json`, whose single JSON object goes to stdout),
+//! and writes the trajectory as CSV and a PNG figure; `--record FILE.mcap` records every
+//! solve's input and output for `replay`. Exit code 0 when the solve ran, whatever its
+//! status; 2 on bad input.
+//!
+//! This file parses the command line and dispatches; each subcommand lives in its own
+//! module ([`solve`], [`guess`], [`closed_loop`], [`study`]), the option types they share
+//! in [`args`] and the path helpers in [`paths`].
+
+mod args;
+mod closed_loop;
+mod guess;
+mod paths;
+mod solve;
+mod study;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "trajopt",
+    version,
+    about = "Reference-free minimum-time trajectory optimizer"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Solve one scenario (default: the oval) and write CSV + PNG.
+    Solve(solve::SolveArgs),
+    /// Compute and print the equilibrium initial guess of a vehicle (paper eq. 8).
+    Guess(guess::GuessArgs),
+    /// Run the planner and tracker processes (ipc crate) in closed loop and summarise.
+    ClosedLoop(closed_loop::ClosedLoopArgs),
+    /// Reproduce a study of the paper (tables + PNG; `--json` for one JSON object).
+    #[command(subcommand)]
+    Study(study::StudyCommand),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    // No subcommand: solve the built-in default scenario (the oval).
+    let command = match cli.command {
+        Some(c) => c,
+        None => match Cli::parse_from(["trajopt", "solve"]).command {
+            Some(c) => c,
+            None => return ExitCode::from(2),
+        },
+    };
+    let result = match command {
+        Command::Solve(args) => solve::run(args),
+        Command::Guess(args) => guess::run(args),
+        Command::ClosedLoop(args) => closed_loop::run(args),
+        Command::Study(command) => study::run(command),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(msg) => {
+            eprintln!("trajopt: error: {msg}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -70,7 +70,7 @@ fn inputs_round_trip_bit_exactly_through_the_file() {
 fn recorded_values_outside_their_domain_are_rejected_by_name_before_solving() {
     let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
     // Outside the config hash (which covers vehicle and settings only): speed bounds
-    // crossed (the guess's clamp used to panic on them), a NaN lane bound, a bad length.
+    // crossed (the guess clamps the speed between them, which must not panic), a NaN lane bound, a bad length.
     let mut bad = rec.inputs[0].clone();
     bad.v_min_mps = bad.v_max_mps + 1.0;
     let e = problem_from(&bad).unwrap_err().to_string();

@@ -54,7 +54,7 @@ fn run_closed_loop(distance_m: f64, extra: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("bad JSON ({e}):\n{stderr}"))
 }
 
-/// The acceptance criterion: one lap of the oval over iceoryx2, the car stays in the
+/// The closed loop's acceptance criterion: one lap of the oval over iceoryx2, the car stays in the
 /// lane and within 0.5 m of the plan, and both processes shut down (the command returns
 /// only after both exited).
 #[test]

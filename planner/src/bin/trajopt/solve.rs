@@ -80,7 +80,7 @@ struct Inputs {
     guess: GuessKind,
 }
 
-/// The measurements of the repeats: the total and per-phase times of every solve [ms]
+/// The measurements of the repeats: the total and per-phase times of every solve \[ms\]
 /// and the last solve's report.
 struct Repeats {
     /// Total solve time of each repeat.
@@ -340,11 +340,11 @@ struct Report<'a> {
     name: String,
     /// The last solve's report.
     info: &'a SolveInfo,
-    /// Median total solve time [ms].
+    /// Median total solve time \[ms\].
     solve_ms: f64,
-    /// Every repeat's total solve time [ms], sorted.
+    /// Every repeat's total solve time \[ms\], sorted.
     times: &'a [f64],
-    /// Median time of each phase: evaluation, factorization, solve, line search [ms].
+    /// Median time of each phase: evaluation, factorization, solve, line search \[ms\].
     phase_medians: [f64; 4],
     traj: &'a Trajectory,
     worst: Vec<(String, f64)>,

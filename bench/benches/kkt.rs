@@ -11,53 +11,102 @@
 //! as a decoupled chain, the rest in 8-state blocks.
 
 use bench::OvalKkt;
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use planner::ip::kkt::KktSolver;
 use std::hint::black_box;
 
-fn kkt(c: &mut Criterion) {
-    // Equality rows with the sparse backend's base regularization, and without (what the
-    // solver gives the Riccati backend).
-    let sys = OvalKkt::new(-1e-10);
-    let sys0 = OvalKkt::new(0.0);
-    let (values, values0) = (sys.values(), sys0.values());
-    let (n, m) = (sys.n, sys.m);
-    let rhs_x: Vec<f64> = (0..n).map(|i| ((i % 11) as f64 - 5.0) * 0.1).collect();
-    let rhs_y: Vec<f64> = (0..m).map(|i| ((i % 13) as f64 - 6.0) * 0.1).collect();
-    let (mut bx, mut by) = (rhs_x.clone(), rhs_y.clone());
+/// The oval KKT system, its values with and without the base regularization, the values
+/// of the perturbed Jacobian, and a right-hand side.
+struct Fixture {
+    sys: OvalKkt,
+    /// With the sparse backend's base regularization on the equality rows.
+    values: Vec<f64>,
+    /// Without (what the solver gives the Riccati backend).
+    values0: Vec<f64>,
+    /// Without, the Jacobian's entries other than 0 and +-1 scaled by 1 + 1e-12.
+    values1: Vec<f64>,
+    rhs_x: Vec<f64>,
+    rhs_y: Vec<f64>,
+}
 
-    let mut sparse = sys.sparse();
-    let mut ric = sys.riccati();
-
-    let mut g = c.benchmark_group("kkt_oval_n100");
-    g.bench_function("sparse_ldlt/factorize", |b| {
-        b.iter(|| sparse.factorize(black_box(&values)).expect("factorizes"))
-    });
-    g.bench_function("sparse_ldlt/solve", |b| {
-        b.iter(|| {
-            bx.copy_from_slice(&rhs_x);
-            by.copy_from_slice(&rhs_y);
-            sparse.solve(black_box(&mut bx), black_box(&mut by));
-        })
-    });
-    g.bench_function("riccati/factorize", |b| {
-        b.iter(|| ric.factorize(black_box(&values0)).expect("factorizes"))
-    });
-    let mut sys1 = OvalKkt::new(0.0);
-    for v in sys1.jac.iter_mut() {
-        if *v != 0.0 && v.abs() != 1.0 {
-            *v *= 1.0 + 1e-12;
+impl Fixture {
+    fn new() -> Self {
+        let sys = OvalKkt::new(-1e-10);
+        let sys0 = OvalKkt::new(0.0);
+        let (values, values0) = (sys.values(), sys0.values());
+        let (n, m) = (sys.n, sys.m);
+        let rhs_x: Vec<f64> = (0..n).map(|i| ((i % 11) as f64 - 5.0) * 0.1).collect();
+        let rhs_y: Vec<f64> = (0..m).map(|i| ((i % 13) as f64 - 6.0) * 0.1).collect();
+        let mut sys1 = OvalKkt::new(0.0);
+        for v in sys1.jac.iter_mut() {
+            if *v != 0.0 && v.abs() != 1.0 {
+                *v *= 1.0 + 1e-12;
+            }
+        }
+        let values1 = sys1.values();
+        Self {
+            sys,
+            values,
+            values0,
+            values1,
+            rhs_x,
+            rhs_y,
         }
     }
-    let values1 = sys1.values();
-    let mut flip = false;
-    g.bench_function("riccati/factorize_new_jacobian", |b| {
-        b.iter(|| {
-            flip = !flip;
-            let v = if flip { &values1 } else { &values0 };
-            ric.factorize(black_box(v)).expect("factorizes")
-        })
+
+    /// Benchmarks `solve` of a factorized `kkt` on a fresh copy of the right-hand side.
+    fn bench_solve(
+        &self,
+        g: &mut BenchmarkGroup<'_, WallTime>,
+        name: &str,
+        kkt: &mut impl KktSolver,
+    ) {
+        let (mut bx, mut by) = (self.rhs_x.clone(), self.rhs_y.clone());
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                bx.copy_from_slice(&self.rhs_x);
+                by.copy_from_slice(&self.rhs_y);
+                kkt.solve(black_box(&mut bx), black_box(&mut by));
+            })
+        });
+    }
+
+    /// Benchmarks `factorize` of `kkt` alternating the two Jacobians (`flip` carries the
+    /// alternation from one benchmark to the next).
+    fn bench_new_jacobian(
+        &self,
+        g: &mut BenchmarkGroup<'_, WallTime>,
+        name: &str,
+        kkt: &mut impl KktSolver,
+        flip: &mut bool,
+    ) {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                *flip = !*flip;
+                let v = if *flip { &self.values1 } else { &self.values0 };
+                kkt.factorize(black_box(v)).expect("factorizes")
+            })
+        });
+    }
+}
+
+/// The general sparse LDL^T backend.
+fn sparse_ldlt(g: &mut BenchmarkGroup<'_, WallTime>, fx: &Fixture) {
+    let mut sparse = fx.sys.sparse();
+    g.bench_function("sparse_ldlt/factorize", |b| {
+        b.iter(|| sparse.factorize(black_box(&fx.values)).expect("factorizes"))
     });
+    fx.bench_solve(g, "sparse_ldlt/solve", &mut sparse);
+}
+
+/// The Riccati backend on the whole state, serial and pipelined.
+fn riccati(g: &mut BenchmarkGroup<'_, WallTime>, fx: &Fixture, flip: &mut bool) {
+    let mut ric = fx.sys.riccati();
+    g.bench_function("riccati/factorize", |b| {
+        b.iter(|| ric.factorize(black_box(&fx.values0)).expect("factorizes"))
+    });
+    fx.bench_new_jacobian(g, "riccati/factorize_new_jacobian", &mut ric, flip);
     // As in a solve, where the evaluation, the line search and the back-solves run between
     // two factorizations: 4 MB (more than a 1 MB L2 cache) are written first, outside the
     // timing, so the blocks, factors and index lists come from L3 or memory.
@@ -65,76 +114,68 @@ fn kkt(c: &mut Criterion) {
     g.bench_function("riccati/factorize_new_jacobian_cold", |b| {
         b.iter_batched(
             || {
-                flip = !flip;
+                *flip = !*flip;
                 evict.iter_mut().for_each(|v| *v = v.wrapping_add(1));
-                flip
+                *flip
             },
             |f| {
-                let v = if f { &values1 } else { &values0 };
+                let v = if f { &fx.values1 } else { &fx.values0 };
                 ric.factorize(black_box(v)).expect("factorizes")
             },
             criterion::BatchSize::PerIteration,
         )
     });
     g.bench_function("riccati/factorize_regularized", |b| {
-        b.iter(|| ric.factorize(black_box(&values)).expect("factorizes"))
+        b.iter(|| ric.factorize(black_box(&fx.values)).expect("factorizes"))
     });
-    let mut piped = sys.riccati();
+    let mut piped = fx.sys.riccati();
     piped.set_pipelined(true).expect("helper thread starts");
     g.bench_function("riccati/factorize_pipelined", |b| {
-        b.iter(|| piped.factorize(black_box(&values0)).expect("factorizes"))
+        b.iter(|| piped.factorize(black_box(&fx.values0)).expect("factorizes"))
     });
-    g.bench_function("riccati/factorize_pipelined_new_jacobian", |b| {
-        b.iter(|| {
-            flip = !flip;
-            let v = if flip { &values1 } else { &values0 };
-            piped.factorize(black_box(v)).expect("factorizes")
-        })
-    });
+    fx.bench_new_jacobian(
+        g,
+        "riccati/factorize_pipelined_new_jacobian",
+        &mut piped,
+        flip,
+    );
     drop(piped);
-    ric.factorize(&values0).expect("factorizes");
-    g.bench_function("riccati/solve", |b| {
-        b.iter(|| {
-            bx.copy_from_slice(&rhs_x);
-            by.copy_from_slice(&rhs_y);
-            ric.solve(black_box(&mut bx), black_box(&mut by));
-        })
-    });
-    // What the solver runs: the arc length s split off, 8-state blocks.
-    let mut split = sys.split_riccati();
+    ric.factorize(&fx.values0).expect("factorizes");
+    fx.bench_solve(g, "riccati/solve", &mut ric);
+}
+
+/// What the solver runs: the arc length s split off, 8-state blocks.
+fn riccati_split(g: &mut BenchmarkGroup<'_, WallTime>, fx: &Fixture, flip: &mut bool) {
+    let mut split = fx.sys.split_riccati();
     g.bench_function("riccati_split/factorize", |b| {
-        b.iter(|| split.factorize(black_box(&values0)).expect("factorizes"))
+        b.iter(|| split.factorize(black_box(&fx.values0)).expect("factorizes"))
     });
-    g.bench_function("riccati_split/factorize_new_jacobian", |b| {
-        b.iter(|| {
-            flip = !flip;
-            let v = if flip { &values1 } else { &values0 };
-            split.factorize(black_box(v)).expect("factorizes")
-        })
-    });
-    split.factorize(&values0).expect("factorizes");
-    g.bench_function("riccati_split/solve", |b| {
-        b.iter(|| {
-            bx.copy_from_slice(&rhs_x);
-            by.copy_from_slice(&rhs_y);
-            split.solve(black_box(&mut bx), black_box(&mut by));
-        })
-    });
+    fx.bench_new_jacobian(g, "riccati_split/factorize_new_jacobian", &mut split, flip);
+    split.factorize(&fx.values0).expect("factorizes");
+    fx.bench_solve(g, "riccati_split/solve", &mut split);
     // The same with the helper thread of `threads = 2` writing the stage blocks.
     split
         .inner_mut()
         .set_pipelined(true)
         .expect("helper thread starts");
     g.bench_function("riccati_split/factorize_pipelined", |b| {
-        b.iter(|| split.factorize(black_box(&values0)).expect("factorizes"))
+        b.iter(|| split.factorize(black_box(&fx.values0)).expect("factorizes"))
     });
-    g.bench_function("riccati_split/factorize_pipelined_new_jacobian", |b| {
-        b.iter(|| {
-            flip = !flip;
-            let v = if flip { &values1 } else { &values0 };
-            split.factorize(black_box(v)).expect("factorizes")
-        })
-    });
+    fx.bench_new_jacobian(
+        g,
+        "riccati_split/factorize_pipelined_new_jacobian",
+        &mut split,
+        flip,
+    );
+}
+
+fn kkt(c: &mut Criterion) {
+    let fx = Fixture::new();
+    let mut flip = false;
+    let mut g = c.benchmark_group("kkt_oval_n100");
+    sparse_ldlt(&mut g, &fx);
+    riccati(&mut g, &fx, &mut flip);
+    riccati_split(&mut g, &fx, &mut flip);
     g.finish();
 }
 

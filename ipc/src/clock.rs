@@ -1,6 +1,6 @@
 //! CLOCK_MONOTONIC in nanoseconds: system-wide, so stamps compare across processes.
 
-/// Current CLOCK_MONOTONIC time [ns] (0 if the clock is unavailable, which Linux never is).
+/// Current CLOCK_MONOTONIC time \[ns\] (0 if the clock is unavailable, which Linux never is).
 pub fn monotonic_ns() -> u64 {
     let mut ts = libc::timespec {
         tv_sec: 0,

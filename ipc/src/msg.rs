@@ -75,10 +75,10 @@ pub struct VehicleState {
     pub road_id: RoadId,
     /// Run of the publishing tracker ([`new_run_id`]; 0: no run).
     pub run_id: RunId,
-    /// CLOCK_MONOTONIC at publish [ns].
+    /// CLOCK_MONOTONIC at publish \[ns\].
     pub stamp_ns: u64,
     /// [r, V, beta, V_wr, dFz, e, dpsi, s, t] (order of `planner::model::ix`); s is the
-    /// unwrapped track arc length [m] and t the simulation time [s].
+    /// unwrapped track arc length \[m\] and t the simulation time \[s\].
     pub x: [f64; NX],
 }
 
@@ -95,7 +95,7 @@ pub struct Trajectory {
     pub seq: u64,
     /// Road the plan is on.
     pub road_id: RoadId,
-    /// CLOCK_MONOTONIC at publish [ns].
+    /// CLOCK_MONOTONIC at publish \[ns\].
     pub stamp_ns: u64,
     /// `run_id` of the vehicle state this plan starts from (the plan's owner).
     pub from_run_id: RunId,
@@ -107,13 +107,13 @@ pub struct Trajectory {
     pub iterations: u32,
     /// 1 when warm-started from the previous plan shifted in s, 0 for the equilibrium guess.
     pub warm_started: u32,
-    /// Wall time of the planning cycle (road window, guess, solve) [s].
+    /// Wall time of the planning cycle (road window, guess, solve) \[s\].
     pub solve_time_s: f64,
-    /// Track arc length of node 0 [m] (unwrapped, as in the vehicle state).
+    /// Track arc length of node 0 \[m\] (unwrapped, as in the vehicle state).
     pub s_origin: f64,
-    /// Simulation time of node 0 [s].
+    /// Simulation time of node 0 \[s\].
     pub t_origin: f64,
-    /// Node spacing [m].
+    /// Node spacing \[m\].
     pub ds: f64,
     /// The measured state the plan starts from (s and t as measured).
     pub x_from: [f64; NX],
@@ -385,7 +385,7 @@ impl Trajectory {
         Ok(())
     }
 
-    /// Horizon length N ds [m].
+    /// Horizon length N ds \[m\].
     pub fn length(&self) -> f64 {
         self.ds * HORIZON_N as f64
     }

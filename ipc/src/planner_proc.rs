@@ -12,27 +12,36 @@
 //! nothing either (`ipc/tests/hot_path_alloc.rs`); only logging a refused or failed state
 //! allocates.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use plan_record::{now_ns, PlanOutput, PlanRecord, RecordError, RecordStats, Recorder};
-use planner::guess::GuessKind;
-use planner::ip::{Settings, SolveInfo, Status};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use plan_record::now_ns;
+use planner::ip::{SolveInfo, Status};
 use planner::model::{ix, NU, NX};
-use planner::ocp::{InitialState, OcpSpec};
 use planner::plan::{Planner, ReplanGuess};
 
 use crate::clock::monotonic_ns;
-use crate::msg::{status_code, Invalid, RunId, VehicleState, HORIZON_N, MSG_VERSION};
+use crate::elog;
+use crate::msg::{status_code, Invalid, RunId, Trajectory, VehicleState, HORIZON_N, MSG_VERSION};
 use crate::road::{RoadWindow, Scenario};
-use crate::services::{ipc_err, wait_events, IpcError, Services};
+use crate::services::{ipc_err, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
 
-/// Distance over which the lane margin ramps in from the lane edge [m].
+mod record;
+pub use record::CycleRecorder;
+
+/// Distance over which the lane margin ramps in from the lane edge \[m\].
 pub const MARGIN_RAMP_M: f64 = 20.0;
 
 /// Command-line options of `planner_proc`.
+// clap prints these doc comments as the --help text, which would show the escapes of
+// the unit brackets verbatim: the brackets stay as they are, and rustdoc keeps them as text.
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(clap::Args, Debug, Clone)]
 pub struct PlannerArgs {
     /// Scenario file (a closed road).
@@ -153,81 +162,6 @@ impl LastPlanned {
     }
 }
 
-/// The `--record` part of the planner cycle: each equilibrium-started plan is copied into a
-/// preallocated slot of a pooled [`Recorder`] and queued for its writer thread, which
-/// closes an MCAP chunk per plan (allocates nothing and never blocks; a plan that finds no
-/// free slot or a full queue is dropped and counted).
-#[derive(Debug)]
-pub struct CycleRecorder {
-    rec: Recorder,
-    /// Warm-started plans (a recording cannot hold the guess).
-    not_recorded: u64,
-}
-
-impl CycleRecorder {
-    /// Preallocated plans: 12.8 s of plans at 10 Hz can wait for a slow disk.
-    pub const SLOTS: usize = 128;
-
-    /// Creates the file; every slot starts as the record of `spec` solved with `settings`
-    /// from the equilibrium guess, with room for a road of the planner's horizon.
-    pub fn create(path: &Path, spec: &OcpSpec, settings: &Settings) -> Result<Self, RecordError> {
-        let mut input = planner::record::plan_input(spec, settings, GuessKind::Equilibrium, 0, 0);
-        for v in [&mut input.kappa, &mut input.e_min, &mut input.e_max] {
-            v.reserve(HORIZON_N + 1);
-        }
-        let template = PlanRecord {
-            input,
-            output: PlanOutput::with_capacity(HORIZON_N),
-        };
-        Ok(Self {
-            rec: Recorder::create_pooled(path, &template, Self::SLOTS)?,
-            not_recorded: 0,
-        })
-    }
-
-    /// Records one equilibrium-started plan: the road window and start state it solved
-    /// from and what it produced. False when it was dropped.
-    #[allow(clippy::too_many_arguments)]
-    pub fn record(
-        &self,
-        seq: u64,
-        stamp_in: u64,
-        road: &RoadWindow,
-        x0: [f64; NX],
-        info: &SolveInfo,
-        states: &[[f64; NX]],
-        controls: &[[f64; NU]],
-    ) -> bool {
-        let Some(mut slot) = self.rec.slot() else {
-            return false;
-        };
-        planner::record::update_input(
-            &mut slot.input,
-            seq,
-            stamp_in,
-            [&road.kappa, &road.e_min, &road.e_max],
-            InitialState::Fixed(x0),
-        );
-        planner::record::write_output(&mut slot.output, seq, now_ns(), info, states, controls);
-        self.rec.record_plan(slot)
-    }
-
-    /// Counts a warm-started plan, which is not recorded.
-    pub fn skip_warm_started(&mut self) {
-        self.not_recorded += 1;
-    }
-
-    /// Warm-started plans not recorded.
-    pub fn not_recorded(&self) -> u64 {
-        self.not_recorded
-    }
-
-    /// Drains the queue and closes the file.
-    pub fn finish(self) -> Result<RecordStats, RecordError> {
-        self.rec.finish()
-    }
-}
-
 /// What one planning cycle needs, allocated once.
 struct Cycle {
     planner: Planner<HORIZON_N>,
@@ -289,108 +223,167 @@ fn nudge_into(x: f64, lo: f64, hi: f64) -> f64 {
     }
 }
 
-/// Runs the planner process until stopped; returns its summary as JSON.
-pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
-    if !(args.rate_hz > 0.0 && args.rate_hz <= 1000.0) {
-        return Err(PlannerProcError::Setup(
-            "--rate-hz must be in (0, 1000]".into(),
-        ));
-    }
-    if !(args.max_solve_s > 0.0 && args.lane_margin_m >= 0.0) {
-        return Err(PlannerProcError::Setup(
-            "--max-solve-s must be > 0 and --lane-margin-m >= 0".into(),
-        ));
-    }
-    let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
-        .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
-    if 2.0 * args.lane_margin_m >= sc.road.e_max() - sc.road.e_min() {
-        return Err(PlannerProcError::Setup(
-            "--lane-margin-m leaves no lane".into(),
-        ));
-    }
-    let mut settings = sc.settings;
-    settings.max_time_s = args.max_solve_s;
-    let ds = sc.ds();
-    let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
-    let mut recorder = match &args.record {
-        Some(path) => Some(
-            CycleRecorder::create(path, &sc.spec, &settings).map_err(|e| {
-                PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
-            })?,
-        ),
-        None => None,
-    };
-    let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
-        .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
-    let mut cy = Cycle {
-        planner,
-        road: RoadWindow::default(),
-        guess_x: vec![[0.0; NX]; HORIZON_N + 1],
-        guess_u: vec![[0.0; NU]; HORIZON_N],
-        prev_origin: 0.0,
-        prev_ok: false,
-    };
+/// The shared-memory ports of the planner process and its stop signals. The ports come
+/// before the services in field order, so they are dropped first.
+struct Ports {
+    sub: Subscriber<Svc, VehicleState, ()>,
+    listener: Listener<Svc>,
+    publisher: Publisher<Svc, Trajectory, ()>,
+    notifier: Notifier<Svc>,
+    stdin: StdinWatch,
+    svc: Services,
+}
 
-    let svc = Services::open(&args.service_prefix, "planner")?;
-    let sub = svc.state_subscriber()?;
-    let listener = svc.state_listener()?;
-    let publisher = svc.traj_publisher()?;
-    let notifier = svc.traj_notifier()?;
-    let stdin = if args.exit_on_stdin_eof {
-        StdinWatch::start()
-    } else {
-        StdinWatch::disabled()
-    };
+impl Ports {
+    fn open(args: &PlannerArgs) -> Result<Self, IpcError> {
+        let svc = Services::open(&args.service_prefix, "planner")?;
+        let sub = svc.state_subscriber()?;
+        let listener = svc.state_listener()?;
+        let publisher = svc.traj_publisher()?;
+        let notifier = svc.traj_notifier()?;
+        let stdin = if args.exit_on_stdin_eof {
+            StdinWatch::start()
+        } else {
+            StdinWatch::disabled()
+        };
+        Ok(Self {
+            sub,
+            listener,
+            publisher,
+            notifier,
+            stdin,
+            svc,
+        })
+    }
+}
 
-    let period = Duration::from_secs_f64(1.0 / args.rate_hz);
-    let started = Instant::now();
-    let mut next_tick = started;
-    let mut latest: Option<VehicleState> = None;
-    let mut planned = LastPlanned::default();
-    let mut rejected = Rejected::default();
-    // Valid states outside the planner's domain (see `InitialDomain`), not planned.
-    let mut outside = 0u64;
-    let mut states_received = 0u64;
-    let mut published = 0u64;
-    let (mut warm, mut cold, mut failed) = (0u64, 0u64, 0u64);
-    let mut cycle_lat = Latency::new();
-    let mut state_ipc_lat = Latency::new();
-    let margin = args.lane_margin_m;
+/// What one planning cycle solved: the solve's outcome and the state it planned from.
+/// The planner holds the solution ([`Planner::states`], [`Planner::controls`]).
+struct Solved {
+    info: SolveInfo,
+    warm_started: bool,
+    /// The start state as planned from (re-referenced and nudged into the bounds).
+    x0: [f64; NX],
+    /// Track s of the measured state: the plan's origin.
+    s_track: f64,
+    /// Wall clock when the cycle started [ns since the epoch] (the record's input stamp).
+    stamp_in: u64,
+    /// When the cycle started (the cycle latency runs to the send).
+    t0: Instant,
+    /// Seconds from the cycle's start to the end of the solve.
+    solve_time_s: f64,
+}
 
-    eprintln!(
-        "planner: up (prefix {}, road {:#018x}, {:.1} Hz, ds {ds} m)",
-        args.service_prefix, sc.id, args.rate_hz
-    );
-    loop {
-        if stdin.closed() || svc.termination_requested() {
-            break;
+/// The planner process's loop state: the scenario, what a cycle needs, and the counters
+/// of the final report.
+struct PlannerLoop {
+    sc: Scenario,
+    ds: f64,
+    v_min: f64,
+    v_max: f64,
+    margin: f64,
+    warm_start: bool,
+    recorder: Option<CycleRecorder>,
+    cy: Cycle,
+    latest: Option<VehicleState>,
+    planned: LastPlanned,
+    rejected: Rejected,
+    /// Valid states outside the planner's domain (see `InitialDomain`), not planned.
+    outside: u64,
+    states_received: u64,
+    published: u64,
+    warm: u64,
+    cold: u64,
+    failed: u64,
+    cycle_lat: Latency,
+    state_ipc_lat: Latency,
+}
+
+impl PlannerLoop {
+    /// Checks the options, loads the files and allocates the planner and the recorder.
+    fn setup(args: &PlannerArgs) -> Result<Self, PlannerProcError> {
+        if !(args.rate_hz > 0.0 && args.rate_hz <= 1000.0) {
+            return Err(PlannerProcError::Setup(
+                "--rate-hz must be in (0, 1000]".into(),
+            ));
         }
-        if args.max_runtime_s > 0.0 && started.elapsed().as_secs_f64() > args.max_runtime_s {
-            break;
+        if !(args.max_solve_s > 0.0 && args.lane_margin_m >= 0.0) {
+            return Err(PlannerProcError::Setup(
+                "--max-solve-s must be > 0 and --lane-margin-m >= 0".into(),
+            ));
         }
-        let now = Instant::now();
-        let wait = next_tick
-            .saturating_duration_since(now)
-            .clamp(Duration::from_millis(1), Duration::from_millis(100));
-        if let Err(e) = wait_events(&listener, wait) {
-            if svc.termination_requested() {
-                break;
-            }
-            return Err(e.into());
+        let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
+            .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
+        if 2.0 * args.lane_margin_m >= sc.road.e_max() - sc.road.e_min() {
+            return Err(PlannerProcError::Setup(
+                "--lane-margin-m leaves no lane".into(),
+            ));
         }
-        while let Some(sample) = sub.receive().map_err(ipc_err("receive vehicle state"))? {
+        let mut settings = sc.settings;
+        settings.max_time_s = args.max_solve_s;
+        let ds = sc.ds();
+        let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
+        let recorder =
+            match &args.record {
+                Some(path) => Some(CycleRecorder::create(path, &sc.spec, &settings).map_err(
+                    |e| PlannerProcError::Setup(format!("--record {}: {e}", path.display())),
+                )?),
+                None => None,
+            };
+        let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
+            .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
+        let cy = Cycle {
+            planner,
+            road: RoadWindow::default(),
+            guess_x: vec![[0.0; NX]; HORIZON_N + 1],
+            guess_u: vec![[0.0; NU]; HORIZON_N],
+            prev_origin: 0.0,
+            prev_ok: false,
+        };
+        Ok(Self {
+            sc,
+            ds,
+            v_min,
+            v_max,
+            margin: args.lane_margin_m,
+            warm_start: args.warm_start == "on",
+            recorder,
+            cy,
+            latest: None,
+            planned: LastPlanned::default(),
+            rejected: Rejected::default(),
+            outside: 0,
+            states_received: 0,
+            published: 0,
+            warm: 0,
+            cold: 0,
+            failed: 0,
+            cycle_lat: Latency::new(),
+            state_ipc_lat: Latency::new(),
+        })
+    }
+
+    /// Takes every queued vehicle state: keeps the latest valid one, counts and logs the
+    /// invalid ones.
+    fn receive(&mut self, ports: &Ports) -> Result<(), IpcError> {
+        while let Some(sample) = ports
+            .sub
+            .receive()
+            .map_err(ipc_err("receive vehicle state"))?
+        {
             let m: &VehicleState = sample.payload();
-            states_received += 1;
-            match m.validate(sc.id) {
+            self.states_received += 1;
+            match m.validate(self.sc.id) {
                 Ok(()) => {
-                    state_ipc_lat.record_ns(monotonic_ns().saturating_sub(m.stamp_ns));
-                    latest = Some(*m);
+                    self.state_ipc_lat
+                        .record_ns(monotonic_ns().saturating_sub(m.stamp_ns));
+                    self.latest = Some(*m);
                 }
                 Err(e) => {
-                    rejected.count(&e);
-                    let n = rejected.total();
+                    self.rejected.count(&e);
+                    let n = self.rejected.total();
                     if n <= 10 || n % 1000 == 0 {
-                        eprintln!(
+                        elog!(
                             "planner: dropped vehicle state seq {} ({n} dropped so far): {e}",
                             m.seq
                         );
@@ -398,29 +391,65 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
                 }
             }
         }
-        if Instant::now() < next_tick {
-            continue;
-        }
-        let Some(state) = latest else { continue };
-        if planned.is_planned(&state) {
-            continue;
-        }
-        next_tick = (next_tick + period).max(Instant::now());
+        Ok(())
+    }
 
-        // ---- planning cycle
+    /// Plans from `state`: samples the road window, nudges the start state into the
+    /// bounds, checks the domain and solves (warm, then from the equilibrium). `None` when
+    /// nothing was solved (a state outside the domain or a failed replan); otherwise what
+    /// was solved, converged or not.
+    fn plan_cycle(&mut self, state: &VehicleState) -> Option<Solved> {
         let stamp_in = now_ns();
         let t0 = Instant::now();
         let s_track = state.x[ix::S];
-        sc.road
-            .window(s_track, ds, margin, MARGIN_RAMP_M, &mut cy.road);
+        let x0 = self.start_state(state)?;
+        let (info, warm_started) = self.solve(state, x0, s_track)?;
+        if !info.status.is_success() {
+            self.failed += 1;
+            if self.failed <= 10 || self.failed % 100 == 0 {
+                elog!(
+                    "planner: plan {} ended {} after {} iterations; publishing the best iterate",
+                    self.published,
+                    info.status.name(),
+                    info.iterations
+                );
+            }
+        }
+        self.cy.prev_ok = matches!(info.status, Status::Optimal | Status::Acceptable);
+        self.cy.prev_origin = s_track;
+        self.planned.mark(state);
+        let solve_time_s = t0.elapsed().as_secs_f64();
+        Some(Solved {
+            info,
+            warm_started,
+            x0,
+            s_track,
+            stamp_in,
+            t0,
+            solve_time_s,
+        })
+    }
+
+    /// Samples the road window at `state` and returns the start state to plan from:
+    /// `state` re-referenced and nudged into the bounds. `None` (counted, logged and
+    /// marked as planned) when it lies outside the planner's domain.
+    fn start_state(&mut self, state: &VehicleState) -> Option<[f64; NX]> {
+        let cy = &mut self.cy;
+        self.sc.road.window(
+            state.x[ix::S],
+            self.ds,
+            self.margin,
+            MARGIN_RAMP_M,
+            &mut cy.road,
+        );
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds
         // the OCP enforces so a slightly-out state stays plannable.
         let mut x0 = state.x;
         x0[ix::S] = 0.0;
         x0[ix::T] = 0.0;
-        x0[ix::V] = nudge_into(x0[ix::V], v_min, v_max);
+        x0[ix::V] = nudge_into(x0[ix::V], self.v_min, self.v_max);
         x0[ix::E] = nudge_into(x0[ix::E], cy.road.e_min[0], cy.road.e_max[0]);
-        let vehicle = &sc.spec.vehicle;
+        let vehicle = &self.sc.spec.vehicle;
         x0[ix::VWR] = x0[ix::VWR].max(vehicle.v_wr_min + 1e-3);
         let w = vehicle.m * vehicle.g;
         x0[ix::DFZ] = nudge_into(x0[ix::DFZ], -w, w);
@@ -432,25 +461,40 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             .initial_domain(&cy.road.kappa, &cy.road.e_min, &cy.road.e_max)
             .check(&x0)
         {
-            outside += 1;
-            if outside <= 10 || outside.is_multiple_of(1000) {
-                eprintln!(
-                    "planner: not planning from vehicle state seq {} ({outside} so far): {e}",
-                    state.seq
+            self.outside += 1;
+            if self.outside <= 10 || self.outside.is_multiple_of(1000) {
+                elog!(
+                    "planner: not planning from vehicle state seq {} ({} so far): {e}",
+                    state.seq,
+                    self.outside
                 );
             }
             cy.prev_ok = false;
-            planned.mark(&state);
-            continue;
+            self.planned.mark(state);
+            return None;
         }
+        Some(x0)
+    }
+
+    /// Solves from `x0` over the sampled window: warm-started from the previous plan when
+    /// that is sound and converges, else from the equilibrium. Returns the solve's outcome
+    /// and whether it was warm-started; `None` (logged, counted, marked as planned) when
+    /// the equilibrium-started replan fails.
+    fn solve(
+        &mut self,
+        state: &VehicleState,
+        x0: [f64; NX],
+        s_track: f64,
+    ) -> Option<(SolveInfo, bool)> {
+        let ds = self.ds;
+        let cy = &mut self.cy;
         let shift = s_track - cy.prev_origin;
         // A warm start shifts the previous plan, which belongs to the same publisher run only.
-        let sound = args.warm_start == "on"
+        let sound = self.warm_start
             && cy.prev_ok
-            && planned.same_run(&state)
+            && self.planned.same_run(state)
             && shift >= 0.0
             && shift < 0.5 * HORIZON_N as f64 * ds;
-        let mut info = None;
         if sound {
             cy.shifted_guess(shift, &x0, ds);
             let r = cy.planner.replan(
@@ -462,58 +506,48 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             );
             match r {
                 Ok(i) if i.status.is_success() => {
-                    warm += 1;
-                    info = Some((i, true));
+                    self.warm += 1;
+                    return Some((i, true));
                 }
                 Ok(_) => {}
-                Err(e) => eprintln!("planner: warm replan failed: {e}"),
+                Err(e) => elog!("planner: warm replan failed: {e}"),
             }
         }
-        let (info, warm_started) = match info {
-            Some(v) => v,
-            None => {
-                cold += 1;
-                match cy.planner.replan(
-                    &cy.road.kappa,
-                    &cy.road.e_min,
-                    &cy.road.e_max,
-                    x0,
-                    ReplanGuess::Equilibrium,
-                ) {
-                    Ok(i) => (i, false),
-                    Err(e) => {
-                        eprintln!("planner: replan failed: {e}");
-                        failed += 1;
-                        cy.prev_ok = false;
-                        planned.mark(&state);
-                        continue;
-                    }
-                }
-            }
-        };
-        if !info.status.is_success() {
-            failed += 1;
-            if failed <= 10 || failed % 100 == 0 {
-                eprintln!(
-                    "planner: plan {} ended {} after {} iterations; publishing the best iterate",
-                    published,
-                    info.status.name(),
-                    info.iterations
-                );
+        self.cold += 1;
+        match cy.planner.replan(
+            &cy.road.kappa,
+            &cy.road.e_min,
+            &cy.road.e_max,
+            x0,
+            ReplanGuess::Equilibrium,
+        ) {
+            Ok(i) => Some((i, false)),
+            Err(e) => {
+                elog!("planner: replan failed: {e}");
+                self.failed += 1;
+                cy.prev_ok = false;
+                self.planned.mark(state);
+                None
             }
         }
-        cy.prev_ok = matches!(info.status, Status::Optimal | Status::Acceptable);
-        cy.prev_origin = s_track;
-        planned.mark(&state);
-        let solve_time = t0.elapsed().as_secs_f64();
+    }
 
-        // ---- write the plan in place into a loaned sample
-        let mut sample = publisher
+    /// Writes the planner's solution in place into a loaned sample, sends it and notifies
+    /// the tracker.
+    fn publish(
+        &mut self,
+        ports: &Ports,
+        state: &VehicleState,
+        solved: &Solved,
+    ) -> Result<(), IpcError> {
+        let mut sample = ports
+            .publisher
             .loan_uninit()
             .map_err(ipc_err("loan trajectory"))?;
         let p = sample.payload_mut().as_mut_ptr();
-        let xs = cy.planner.states();
-        let us = cy.planner.controls();
+        let xs = self.cy.planner.states();
+        let us = self.cy.planner.controls();
+        let info = &solved.info;
         // SAFETY: `p` points to a properly aligned, writable `Trajectory` in the loaned
         // shared-memory chunk; every field is written exactly once below (all are plain
         // `Copy` data), so the sample is fully initialised before `assume_init`.
@@ -521,17 +555,17 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             use core::ptr::addr_of_mut;
             addr_of_mut!((*p).version).write(MSG_VERSION);
             addr_of_mut!((*p).status).write(status_code(info.status));
-            addr_of_mut!((*p).seq).write(published);
-            addr_of_mut!((*p).road_id).write(sc.id);
+            addr_of_mut!((*p).seq).write(self.published);
+            addr_of_mut!((*p).road_id).write(self.sc.id);
             addr_of_mut!((*p).from_run_id).write(state.run_id);
             addr_of_mut!((*p).from_state_seq).write(state.seq);
             addr_of_mut!((*p).from_state_stamp_ns).write(state.stamp_ns);
             addr_of_mut!((*p).iterations).write(info.iterations.min(u32::MAX as usize) as u32);
-            addr_of_mut!((*p).warm_started).write(u32::from(warm_started));
-            addr_of_mut!((*p).solve_time_s).write(solve_time);
-            addr_of_mut!((*p).s_origin).write(s_track);
+            addr_of_mut!((*p).warm_started).write(u32::from(solved.warm_started));
+            addr_of_mut!((*p).solve_time_s).write(solved.solve_time_s);
+            addr_of_mut!((*p).s_origin).write(solved.s_track);
             addr_of_mut!((*p).t_origin).write(state.x[ix::T]);
-            addr_of_mut!((*p).ds).write(ds);
+            addr_of_mut!((*p).ds).write(self.ds);
             addr_of_mut!((*p).x_from).write(state.x);
             let px = addr_of_mut!((*p).x) as *mut [f64; NX];
             for k in 0..=HORIZON_N {
@@ -545,65 +579,141 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             sample.assume_init()
         };
         sample.send().map_err(ipc_err("send trajectory"))?;
-        notifier.notify().map_err(ipc_err("notify trajectory"))?;
-        published += 1;
-        cycle_lat.record_ns(t0.elapsed().as_nanos() as u64);
+        ports
+            .notifier
+            .notify()
+            .map_err(ipc_err("notify trajectory"))?;
+        self.published += 1;
+        self.cycle_lat
+            .record_ns(solved.t0.elapsed().as_nanos() as u64);
+        Ok(())
+    }
 
-        // ---- record (after publishing; copies into a preallocated slot)
-        if let Some(rec) = &mut recorder {
-            if warm_started {
+    /// Records the plan just published (after publishing; copies into a preallocated slot).
+    fn record(&mut self, solved: &Solved) {
+        if let Some(rec) = &mut self.recorder {
+            if solved.warm_started {
                 rec.skip_warm_started();
             } else {
-                let xs = cy.planner.states();
-                let us = cy.planner.controls();
-                rec.record(published - 1, stamp_in, &cy.road, x0, &info, xs, us);
+                let xs = self.cy.planner.states();
+                let us = self.cy.planner.controls();
+                rec.record(
+                    self.published - 1,
+                    solved.stamp_in,
+                    &self.cy.road,
+                    solved.x0,
+                    &solved.info,
+                    xs,
+                    us,
+                );
             }
         }
     }
-    eprintln!(
-        "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged), {} states dropped, {outside} outside the planner's domain",
-        rejected.total()
+
+    /// Logs the totals, closes the recording and returns the summary as JSON.
+    fn report(self, args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
+        let (published, warm, cold, failed, outside) = (
+            self.published,
+            self.warm,
+            self.cold,
+            self.failed,
+            self.outside,
+        );
+        let rejected = self.rejected;
+        elog!(
+            "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged), {} states dropped, {outside} outside the planner's domain",
+            rejected.total()
+        );
+        let recording = match (self.recorder, &args.record) {
+            (Some(rec), Some(path)) => {
+                let not_recorded = rec.not_recorded();
+                let stats = rec.finish().map_err(|e| {
+                    PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
+                })?;
+                serde_json::json!({
+                    "file": path.display().to_string(),
+                    "inputs": stats.inputs,
+                    "outputs": stats.outputs,
+                    "dropped": stats.dropped,
+                    "warm_started_not_recorded": not_recorded,
+                })
+            }
+            _ => serde_json::Value::Null,
+        };
+        let ms = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-6;
+        Ok(serde_json::json!({
+            "process": "planner",
+            "plans_published": published,
+            "warm_starts": warm,
+            "equilibrium_starts": cold,
+            "not_converged": failed,
+            "states_received": self.states_received,
+            "states_rejected": rejected.total(),
+            "states_outside_domain": outside,
+            "state_run_switches": self.planned.run_switches(),
+            "states_rejected_by_reason": {
+                "version": rejected.version,
+                "road": rejected.road,
+                "non_finite": rejected.non_finite,
+                "range": rejected.range,
+            },
+            "cycle_ms_p50": ms(&self.cycle_lat, 0.5),
+            "cycle_ms_p99": ms(&self.cycle_lat, 0.99),
+            "cycle_ms_max": self.cycle_lat.max_ns() as f64 * 1e-6,
+            "state_age_at_receive_us": self.state_ipc_lat.json_us(),
+            "rate_hz": args.rate_hz,
+            "recording": recording,
+        }))
+    }
+}
+
+/// Runs the planner process until stopped; returns its summary as JSON.
+pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
+    let mut pl = PlannerLoop::setup(args)?;
+    let ports = Ports::open(args)?;
+    let period = Duration::from_secs_f64(1.0 / args.rate_hz);
+    let started = Instant::now();
+    let mut next_tick = started;
+    elog!(
+        "planner: up (prefix {}, road {:#018x}, {:.1} Hz, ds {} m)",
+        args.service_prefix,
+        pl.sc.id,
+        args.rate_hz,
+        pl.ds
     );
-    let recording = match (recorder, &args.record) {
-        (Some(rec), Some(path)) => {
-            let not_recorded = rec.not_recorded();
-            let stats = rec.finish().map_err(|e| {
-                PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
-            })?;
-            serde_json::json!({
-                "file": path.display().to_string(),
-                "inputs": stats.inputs,
-                "outputs": stats.outputs,
-                "dropped": stats.dropped,
-                "warm_started_not_recorded": not_recorded,
-            })
+    loop {
+        if ports.stdin.closed() || ports.svc.termination_requested() {
+            break;
         }
-        _ => serde_json::Value::Null,
-    };
-    let ms = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-6;
-    Ok(serde_json::json!({
-        "process": "planner",
-        "plans_published": published,
-        "warm_starts": warm,
-        "equilibrium_starts": cold,
-        "not_converged": failed,
-        "states_received": states_received,
-        "states_rejected": rejected.total(),
-        "states_outside_domain": outside,
-        "state_run_switches": planned.run_switches(),
-        "states_rejected_by_reason": {
-            "version": rejected.version,
-            "road": rejected.road,
-            "non_finite": rejected.non_finite,
-            "range": rejected.range,
-        },
-        "cycle_ms_p50": ms(&cycle_lat, 0.5),
-        "cycle_ms_p99": ms(&cycle_lat, 0.99),
-        "cycle_ms_max": cycle_lat.max_ns() as f64 * 1e-6,
-        "state_age_at_receive_us": state_ipc_lat.json_us(),
-        "rate_hz": args.rate_hz,
-        "recording": recording,
-    }))
+        if args.max_runtime_s > 0.0 && started.elapsed().as_secs_f64() > args.max_runtime_s {
+            break;
+        }
+        let now = Instant::now();
+        let wait = next_tick
+            .saturating_duration_since(now)
+            .clamp(Duration::from_millis(1), Duration::from_millis(100));
+        if let Err(e) = wait_events(&ports.listener, wait) {
+            if ports.svc.termination_requested() {
+                break;
+            }
+            return Err(e.into());
+        }
+        pl.receive(&ports)?;
+        if Instant::now() < next_tick {
+            continue;
+        }
+        let Some(state) = pl.latest else { continue };
+        if pl.planned.is_planned(&state) {
+            continue;
+        }
+        next_tick = (next_tick + period).max(Instant::now());
+        let Some(solved) = pl.plan_cycle(&state) else {
+            continue;
+        };
+        pl.publish(&ports, &state, &solved)?;
+        pl.record(&solved);
+    }
+    pl.report(args)
 }
 
 #[cfg(test)]

@@ -53,7 +53,7 @@ impl Plant {
         time_derivatives(&self.params, x, u, road.kappa(x[ix::S])).dxdt
     }
 
-    /// One RK4 step of length dt [s] with the saturated control u held constant.
+    /// One RK4 step of length dt \[s\] with the saturated control u held constant.
     /// Allocates nothing.
     pub fn step(&mut self, u: [f64; NU], road: &ClosedRoad, dt: f64) {
         if self.stopped {

@@ -79,17 +79,17 @@ impl ClosedRoad {
         piecewise_constant(&self.pieces, s.rem_euclid(self.lap))
     }
 
-    /// Lap length [m].
+    /// Lap length \[m\].
     pub fn lap(&self) -> f64 {
         self.lap
     }
 
-    /// Right lane edge [m].
+    /// Right lane edge \[m\].
     pub fn e_min(&self) -> f64 {
         self.e_min
     }
 
-    /// Left lane edge [m].
+    /// Left lane edge \[m\].
     pub fn e_max(&self) -> f64 {
         self.e_max
     }
@@ -122,9 +122,9 @@ impl ClosedRoad {
 pub struct RoadWindow {
     /// k_ref at the nodes [1/m].
     pub kappa: [f64; HORIZON_N + 1],
-    /// Right bound at the nodes [m].
+    /// Right bound at the nodes \[m\].
     pub e_min: [f64; HORIZON_N + 1],
-    /// Left bound at the nodes [m].
+    /// Left bound at the nodes \[m\].
     pub e_max: [f64; HORIZON_N + 1],
 }
 
@@ -240,7 +240,7 @@ impl Scenario {
         })
     }
 
-    /// Node spacing of the planning horizon [m].
+    /// Node spacing of the planning horizon \[m\].
     pub fn ds(&self) -> f64 {
         self.spec.ds()
     }

@@ -28,7 +28,7 @@ impl StdinWatch {
                 flag.store(true, Ordering::SeqCst);
             });
         if let Err(e) = spawned {
-            eprintln!("warning: cannot watch stdin: {e}");
+            crate::elog!("warning: cannot watch stdin: {e}");
         }
         w
     }

@@ -22,7 +22,7 @@ impl Latency {
         Self { h }
     }
 
-    /// Records one sample [ns] (clamped into range; allocates nothing).
+    /// Records one sample \[ns\] (clamped into range; allocates nothing).
     pub fn record_ns(&mut self, ns: u64) {
         self.h.saturating_record(ns.max(1));
     }
@@ -32,7 +32,7 @@ impl Latency {
         self.h.len()
     }
 
-    /// Quantile q in [0, 1] [ns] (0 when empty).
+    /// Quantile q in [0, 1] \[ns\] (0 when empty).
     pub fn quantile_ns(&self, q: f64) -> u64 {
         if self.h.is_empty() {
             0
@@ -41,7 +41,7 @@ impl Latency {
         }
     }
 
-    /// Largest sample [ns].
+    /// Largest sample \[ns\].
     pub fn max_ns(&self) -> u64 {
         self.h.max()
     }

@@ -146,7 +146,7 @@ pub struct Reference {
 }
 
 /// Planned state (linear in s) and control (piecewise constant) at local arc length
-/// `s_local` [m] from node 0; `None` outside [0, N ds].
+/// `s_local` \[m\] from node 0; `None` outside [0, N ds].
 pub fn reference(plan: &Trajectory, s_local: f64) -> Option<Reference> {
     let len = plan.length();
     if !(s_local >= 0.0 && s_local <= len) {
@@ -177,13 +177,13 @@ fn wrap(a: f64) -> f64 {
 /// Tracking errors (actual minus planned).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Errors {
-    /// Lateral error e - e_ref [m].
+    /// Lateral error e - e_ref \[m\].
     pub e: f64,
-    /// Heading error dpsi - dpsi_ref [rad].
+    /// Heading error dpsi - dpsi_ref \[rad\].
     pub dpsi: f64,
     /// Speed error V - V_ref [m/s].
     pub v: f64,
-    /// Sideslip error beta - beta_ref [rad].
+    /// Sideslip error beta - beta_ref \[rad\].
     pub beta: f64,
 }
 

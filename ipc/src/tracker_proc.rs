@@ -8,20 +8,28 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
 use planner::model::ix;
 
 use crate::clock::monotonic_ns;
+use crate::elog;
 use crate::msg::{
     new_run_id, RoadId, RunId, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED,
 };
 use crate::plant::Plant;
 use crate::road::Scenario;
-use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services};
+use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
 use crate::tracker::{brake_to_stop, reference, track, ForeignPlans, Gains, Ownership};
 
 /// Command-line options of `tracker_proc`.
+// clap prints these doc comments as the --help text, which would show the escapes of
+// the unit brackets verbatim: the brackets stay as they are, and rustdoc keeps them as text.
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(clap::Args, Debug, Clone)]
 pub struct TrackerArgs {
     /// Scenario file (a closed road).
@@ -198,7 +206,7 @@ impl Inbox {
         if let Err(e) = m.validate_for(road, ds) {
             self.rejected += 1;
             if self.rejected <= 10 {
-                eprintln!("tracker: dropped trajectory seq {}: {e}", m.seq);
+                elog!("tracker: dropped trajectory seq {}: {e}", m.seq);
             }
             return false;
         }
@@ -207,7 +215,7 @@ impl Inbox {
             self.foreign.count(&f);
             let n = self.foreign.total();
             if n <= 10 || n.is_multiple_of(1000) {
-                eprintln!(
+                elog!(
                     "tracker: ignored foreign trajectory seq {} ({n} so far): {f}",
                     m.seq
                 );
@@ -222,109 +230,338 @@ impl Inbox {
     }
 }
 
+/// The shared-memory ports of the tracker process and its stop signals. The ports come
+/// before the services in field order, so they are dropped first.
+struct Ports {
+    publisher: Publisher<Svc, VehicleState, ()>,
+    notifier: Notifier<Svc>,
+    sub: Subscriber<Svc, Trajectory, ()>,
+    listener: Listener<Svc>,
+    stdin: StdinWatch,
+    svc: Services,
+}
+
+impl Ports {
+    fn open(args: &TrackerArgs) -> Result<Self, IpcError> {
+        let svc = Services::open(&args.service_prefix, "tracker")?;
+        let publisher = svc.state_publisher()?;
+        let notifier = svc.state_notifier()?;
+        let sub = svc.traj_subscriber()?;
+        let listener = svc.traj_listener()?;
+        let stdin = if args.exit_on_stdin_eof {
+            StdinWatch::start()
+        } else {
+            StdinWatch::disabled()
+        };
+        Ok(Self {
+            publisher,
+            notifier,
+            sub,
+            listener,
+            stdin,
+            svc,
+        })
+    }
+}
+
+/// The tracker process's loop state: the scenario and step sizes, the plant, the active
+/// plan, the stale/stopped state and the statistics of the final report.
+struct TrackerLoop {
+    sc: Scenario,
+    gains: Gains,
+    distance: f64,
+    substeps: usize,
+    plant_dt: f64,
+    publish_dt: f64,
+    plant: Plant,
+    plan: Box<Trajectory>,
+    have_plan: bool,
+    inbox: Inbox,
+    plans_not_converged: u64,
+    last_plan_at: Instant,
+    stats: Track,
+    ever_stale: bool,
+    stale: bool,
+    stale_at_s: f64,
+    stopped_at: Option<Instant>,
+    e_hold: f64,
+    sim_start: Option<Instant>,
+}
+
+impl TrackerLoop {
+    /// Checks the options, loads the files and derives the step sizes.
+    fn setup(args: &TrackerArgs) -> Result<Self, TrackerProcError> {
+        check_args(args)?;
+        let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
+            .map_err(|e| TrackerProcError::Setup(e.to_string()))?;
+        let distance = if args.distance_m > 0.0 {
+            args.distance_m
+        } else {
+            sc.road.lap()
+        };
+        let substeps = (args.control_dt_s / args.plant_dt_s).round().max(1.0) as usize;
+        let plant_dt = args.control_dt_s / substeps as f64;
+        let per_publish = (args.publish_dt_s / args.control_dt_s).round().max(1.0) as usize;
+        let publish_dt = per_publish as f64 * args.control_dt_s;
+        let plant = Plant::cruise(sc.spec.vehicle, args.v0);
+        Ok(Self {
+            sc,
+            gains: Gains::default(),
+            distance,
+            substeps,
+            plant_dt,
+            publish_dt,
+            plant,
+            plan: Box::new(Trajectory {
+                ds: 1.0,
+                ..Trajectory::zeroed()
+            }),
+            have_plan: false,
+            inbox: Inbox::new(new_run_id()),
+            plans_not_converged: 0,
+            last_plan_at: Instant::now(),
+            stats: Track::default(),
+            ever_stale: false,
+            stale: false,
+            stale_at_s: f64::NAN,
+            stopped_at: None,
+            e_hold: 0.0,
+            sim_start: None,
+        })
+    }
+
+    /// Takes every queued plan: a valid own plan becomes the active one (a non-converged
+    /// one only when the active plan no longer covers the car or is stale).
+    fn receive(&mut self, ports: &Ports) -> Result<(), IpcError> {
+        let plant = &self.plant;
+        while let Some(sample) = ports.sub.receive().map_err(ipc_err("receive trajectory"))? {
+            let m: &Trajectory = sample.payload();
+            if !self
+                .inbox
+                .accept(m, self.sc.id, self.sc.ds(), monotonic_ns())
+            {
+                continue;
+            }
+            let converged = matches!(m.status, 0 | 1);
+            // A non-converged best iterate replaces the active plan only when that
+            // plan no longer covers the car (or there is none yet).
+            let covered = self.have_plan
+                && reference(&self.plan, plant.x[ix::S] - self.plan.s_origin).is_some();
+            if !converged {
+                self.plans_not_converged += 1;
+                if covered && !self.stale {
+                    continue;
+                }
+            }
+            *self.plan = *m;
+            self.have_plan = true;
+            self.last_plan_at = Instant::now();
+            if self.stale && !plant.stopped {
+                elog!("tracker: fresh plan {} after stale period; resuming", m.seq);
+                self.stale = false;
+            }
+            if self.sim_start.is_none() {
+                self.sim_start = Some(Instant::now());
+                elog!(
+                    "tracker: first plan {} ({} iterations); running",
+                    m.seq,
+                    m.iterations
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Advances the simulation to the wall clock `now` (bounded: at most 1 s of sim per
+    /// pass), tracking the active plan or braking to a stop once it is stale.
+    fn advance(&mut self, args: &TrackerArgs, now: Instant) {
+        let Some(t0) = self.sim_start else { return };
+        let params = self.sc.spec.vehicle;
+        let road = &self.sc.road;
+        let plant = &mut self.plant;
+        let stats = &mut self.stats;
+        if !self.stale
+            && self.have_plan
+            && now.duration_since(self.last_plan_at).as_secs_f64() > args.stale_after_s
+        {
+            self.stale = true;
+            self.ever_stale = true;
+            self.stale_at_s = plant.x[ix::T];
+            self.e_hold = plant.x[ix::E];
+            elog!(
+                "tracker: plan {} is stale (no new plan for {:.2} s); braking to a stop",
+                self.plan.seq,
+                args.stale_after_s
+            );
+        }
+        let target_t = now.duration_since(t0).as_secs_f64() * args.time_scale;
+        let max_steps = (1.0 / args.control_dt_s) as usize;
+        let mut steps = 0;
+        while plant.x[ix::T] + 0.5 * args.control_dt_s < target_t && steps < max_steps {
+            steps += 1;
+            let s_local = plant.x[ix::S] - self.plan.s_origin;
+            let r = if self.stale {
+                None
+            } else {
+                reference(&self.plan, s_local)
+            };
+            let u = match r {
+                Some(r) => {
+                    let (u, err) = track(&params, &self.gains, &plant.x, &r);
+                    stats.n += 1;
+                    stats.sum_e2 += err.e * err.e;
+                    stats.max_e = stats.max_e.max(err.e.abs());
+                    stats.max_beta = stats.max_beta.max(err.beta.abs());
+                    stats.max_dpsi = stats.max_dpsi.max(err.dpsi.abs());
+                    stats.max_v = stats.max_v.max(err.v.abs());
+                    self.e_hold = r.x[ix::E];
+                    u
+                }
+                None => brake_to_stop(&params, &self.gains, &plant.x, road, self.e_hold),
+            };
+            for _ in 0..self.substeps {
+                plant.step(u, road, self.plant_dt);
+            }
+            stats.e_lo = stats.e_lo.min(plant.x[ix::E]);
+            stats.e_hi = stats.e_hi.max(plant.x[ix::E]);
+        }
+    }
+
+    /// Publishes the plant state with its flags (running, stale, stopped).
+    fn publish(&mut self, ports: &Ports, now: Instant) -> Result<(), IpcError> {
+        let mut flags = 0;
+        if self.sim_start.is_some() {
+            flags |= FLAG_RUNNING;
+        }
+        if self.stale {
+            flags |= FLAG_STALE;
+        }
+        if self.plant.stopped {
+            flags |= FLAG_STOPPED;
+            if self.stopped_at.is_none() {
+                self.stopped_at = Some(now);
+                elog!("tracker: stopped at s = {:.1} m", self.plant.x[ix::S]);
+            }
+        }
+        let seq = self.inbox.own.next_seq();
+        publish_state(
+            &ports.publisher,
+            &ports.notifier,
+            VehicleState::new(self.sc.id, seq, flags, self.plant.x)
+                .with_run_id(self.inbox.own.run_id()),
+        )
+    }
+
+    /// Why the run ends after the pass at `now`, if it does.
+    fn end_reason(&self, args: &TrackerArgs, now: Instant) -> Option<&'static str> {
+        if self.plant.x[ix::S] >= self.distance {
+            return Some("distance reached");
+        }
+        if self.plant.x[ix::T] >= args.duration_s {
+            return Some("duration reached");
+        }
+        if let Some(at) = self.stopped_at {
+            if now.duration_since(at).as_secs_f64() >= args.linger_s {
+                return Some("stopped");
+            }
+        }
+        None
+    }
+
+    /// Logs the outcome and returns the summary as JSON.
+    fn report(&self, end_reason: &str) -> serde_json::Value {
+        let (plant, stats, inbox, road) = (&self.plant, &self.stats, &self.inbox, &self.sc.road);
+        let rms = if stats.n > 0 {
+            (stats.sum_e2 / stats.n as f64).sqrt()
+        } else {
+            0.0
+        };
+        let lane_kept = stats.e_lo >= road.e_min() && stats.e_hi <= road.e_max();
+        elog!(
+            "tracker: {end_reason}: {:.1} m in {:.2} s, {} plans ({} foreign ignored), max |e - e_plan| {:.3} m, rms {:.3} m, lane [{:.2}, {:.2}] m{}",
+            plant.x[ix::S],
+            plant.x[ix::T],
+            inbox.plans,
+            inbox.foreign.total(),
+            stats.max_e,
+            rms,
+            stats.e_lo,
+            stats.e_hi,
+            if lane_kept { "" } else { " LEFT THE LANE" }
+        );
+        let us = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-3;
+        let stale_at_s = self.stale_at_s;
+        serde_json::json!({
+            "process": "tracker",
+            "end_reason": end_reason,
+            "laps_or_distance_m": plant.x[ix::S],
+            "laps": plant.x[ix::S] / road.lap(),
+            "sim_time_s": plant.x[ix::T],
+            "plans_received": inbox.plans,
+            "plans_rejected": inbox.rejected,
+            "plans_foreign": inbox.foreign.total(),
+            "plans_foreign_by_reason": {
+                "run_id": inbox.foreign.run_id,
+                "state_seq": inbox.foreign.state_seq,
+            },
+            "run_id": format!("{:#018x}", inbox.own.run_id()),
+            "plans_not_converged": self.plans_not_converged,
+            "max_lateral_error_m": stats.max_e,
+            "rms_lateral_error_m": rms,
+            "max_sideslip_error_rad": stats.max_beta,
+            "max_heading_error_rad": stats.max_dpsi,
+            "max_speed_error_mps": stats.max_v,
+            "e_min_reached_m": stats.e_lo,
+            "e_max_reached_m": stats.e_hi,
+            "lane_kept": lane_kept,
+            "stale": self.ever_stale,
+            "stale_at_sim_s": if stale_at_s.is_finite() { serde_json::json!(stale_at_s) } else { serde_json::Value::Null },
+            "stopped": plant.stopped,
+            "final_speed_mps": plant.x[ix::V],
+            "plan_latency_ms_p50": us(&inbox.plan_lat, 0.5) * 1e-3,
+            "plan_latency_ms_p99": us(&inbox.plan_lat, 0.99) * 1e-3,
+            "ipc_latency_us_p50": us(&inbox.ipc_lat, 0.5),
+            "ipc_latency_us_p99": us(&inbox.ipc_lat, 0.99),
+            "ipc_latency_samples": inbox.ipc_lat.count(),
+        })
+    }
+}
+
 /// Runs the tracker process until done; returns its summary as JSON.
 pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
-    check_args(args)?;
-    let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
-        .map_err(|e| TrackerProcError::Setup(e.to_string()))?;
-    let road = &sc.road;
-    let params = sc.spec.vehicle;
-    let gains = Gains::default();
-    let distance = if args.distance_m > 0.0 {
-        args.distance_m
-    } else {
-        road.lap()
-    };
-    let substeps = (args.control_dt_s / args.plant_dt_s).round().max(1.0) as usize;
-    let plant_dt = args.control_dt_s / substeps as f64;
-    let per_publish = (args.publish_dt_s / args.control_dt_s).round().max(1.0) as usize;
-    let publish_dt = per_publish as f64 * args.control_dt_s;
-
-    let svc = Services::open(&args.service_prefix, "tracker")?;
-    let publisher = svc.state_publisher()?;
-    let notifier = svc.state_notifier()?;
-    let sub = svc.traj_subscriber()?;
-    let listener = svc.traj_listener()?;
-    let stdin = if args.exit_on_stdin_eof {
-        StdinWatch::start()
-    } else {
-        StdinWatch::disabled()
-    };
-
-    let mut plant = Plant::cruise(params, args.v0);
-    let mut plan: Box<Trajectory> = Box::new(Trajectory {
-        ds: 1.0,
-        ..Trajectory::zeroed()
-    });
-    let mut have_plan = false;
-    let mut inbox = Inbox::new(new_run_id());
-    let mut plans_not_converged = 0u64;
-    let mut last_plan_at = Instant::now();
-    let mut stats = Track::default();
-    let mut ever_stale = false;
-    let mut stale = false;
-    let mut stale_at_s = f64::NAN;
-    let mut stopped_at: Option<Instant> = None;
-    let mut e_hold = 0.0;
-
+    let mut tl = TrackerLoop::setup(args)?;
+    let ports = Ports::open(args)?;
     let started = Instant::now();
-    let mut sim_start: Option<Instant> = None;
     let mut next_pub = started;
-    eprintln!(
-        "tracker: up (prefix {}, road {:#018x}, run id {:#018x}, plant dt {plant_dt} s, control {} s, publish {publish_dt} s, distance {distance:.1} m)",
+    elog!(
+        "tracker: up (prefix {}, road {:#018x}, run id {:#018x}, plant dt {} s, control {} s, publish {} s, distance {:.1} m)",
         args.service_prefix,
-        sc.id,
-        inbox.own.run_id(),
-        args.control_dt_s
+        tl.sc.id,
+        tl.inbox.own.run_id(),
+        tl.plant_dt,
+        args.control_dt_s,
+        tl.publish_dt,
+        tl.distance
     );
     let end_reason;
     loop {
-        if stdin.closed() || svc.termination_requested() {
+        if ports.stdin.closed() || ports.svc.termination_requested() {
             end_reason = "stop requested";
             break;
         }
         let wait = next_pub
             .saturating_duration_since(Instant::now())
             .clamp(Duration::from_micros(100), Duration::from_millis(100));
-        if let Err(e) = wait_events(&listener, wait) {
-            if svc.termination_requested() {
+        if let Err(e) = wait_events(&ports.listener, wait) {
+            if ports.svc.termination_requested() {
                 end_reason = "stop requested";
                 break;
             }
             return Err(e.into());
         }
-        while let Some(sample) = sub.receive().map_err(ipc_err("receive trajectory"))? {
-            let m: &Trajectory = sample.payload();
-            if !inbox.accept(m, sc.id, sc.ds(), monotonic_ns()) {
-                continue;
-            }
-            let converged = matches!(m.status, 0 | 1);
-            // A non-converged best iterate replaces the active plan only when that
-            // plan no longer covers the car (or there is none yet).
-            let covered = have_plan && reference(&plan, plant.x[ix::S] - plan.s_origin).is_some();
-            if !converged {
-                plans_not_converged += 1;
-                if covered && !stale {
-                    continue;
-                }
-            }
-            *plan = *m;
-            have_plan = true;
-            last_plan_at = Instant::now();
-            if stale && !plant.stopped {
-                eprintln!("tracker: fresh plan {} after stale period; resuming", m.seq);
-                stale = false;
-            }
-            if sim_start.is_none() {
-                sim_start = Some(Instant::now());
-                eprintln!(
-                    "tracker: first plan {} ({} iterations); running",
-                    m.seq, m.iterations
-                );
-            }
-        }
+        tl.receive(&ports)?;
         let now = Instant::now();
-        if sim_start.is_none()
+        if tl.sim_start.is_none()
             && now.duration_since(started).as_secs_f64() > args.first_plan_timeout_s
         {
             return Err(TrackerProcError::NoPlan(args.first_plan_timeout_s));
@@ -332,144 +569,18 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         if now < next_pub {
             continue;
         }
-        // Advance the simulation to the wall clock (bounded: at most 1 s of sim per pass).
-        if let Some(t0) = sim_start {
-            if !stale
-                && have_plan
-                && now.duration_since(last_plan_at).as_secs_f64() > args.stale_after_s
-            {
-                stale = true;
-                ever_stale = true;
-                stale_at_s = plant.x[ix::T];
-                e_hold = plant.x[ix::E];
-                eprintln!(
-                    "tracker: plan {} is stale (no new plan for {:.2} s); braking to a stop",
-                    plan.seq, args.stale_after_s
-                );
-            }
-            let target_t = now.duration_since(t0).as_secs_f64() * args.time_scale;
-            let max_steps = (1.0 / args.control_dt_s) as usize;
-            let mut steps = 0;
-            while plant.x[ix::T] + 0.5 * args.control_dt_s < target_t && steps < max_steps {
-                steps += 1;
-                let s_local = plant.x[ix::S] - plan.s_origin;
-                let r = if stale {
-                    None
-                } else {
-                    reference(&plan, s_local)
-                };
-                let u = match r {
-                    Some(r) => {
-                        let (u, err) = track(&params, &gains, &plant.x, &r);
-                        stats.n += 1;
-                        stats.sum_e2 += err.e * err.e;
-                        stats.max_e = stats.max_e.max(err.e.abs());
-                        stats.max_beta = stats.max_beta.max(err.beta.abs());
-                        stats.max_dpsi = stats.max_dpsi.max(err.dpsi.abs());
-                        stats.max_v = stats.max_v.max(err.v.abs());
-                        e_hold = r.x[ix::E];
-                        u
-                    }
-                    None => brake_to_stop(&params, &gains, &plant.x, road, e_hold),
-                };
-                for _ in 0..substeps {
-                    plant.step(u, road, plant_dt);
-                }
-                stats.e_lo = stats.e_lo.min(plant.x[ix::E]);
-                stats.e_hi = stats.e_hi.max(plant.x[ix::E]);
-            }
-        }
-        let mut flags = 0;
-        if sim_start.is_some() {
-            flags |= FLAG_RUNNING;
-        }
-        if stale {
-            flags |= FLAG_STALE;
-        }
-        if plant.stopped {
-            flags |= FLAG_STOPPED;
-            if stopped_at.is_none() {
-                stopped_at = Some(now);
-                eprintln!("tracker: stopped at s = {:.1} m", plant.x[ix::S]);
-            }
-        }
-        let seq = inbox.own.next_seq();
-        publish_state(
-            &publisher,
-            &notifier,
-            VehicleState::new(sc.id, seq, flags, plant.x).with_run_id(inbox.own.run_id()),
-        )?;
-        next_pub += Duration::from_secs_f64(publish_dt / args.time_scale);
+        tl.advance(args, now);
+        tl.publish(&ports, now)?;
+        next_pub += Duration::from_secs_f64(tl.publish_dt / args.time_scale);
         if next_pub < now {
             next_pub = now;
         }
-        if plant.x[ix::S] >= distance {
-            end_reason = "distance reached";
+        if let Some(reason) = tl.end_reason(args, now) {
+            end_reason = reason;
             break;
-        }
-        if plant.x[ix::T] >= args.duration_s {
-            end_reason = "duration reached";
-            break;
-        }
-        if let Some(at) = stopped_at {
-            if now.duration_since(at).as_secs_f64() >= args.linger_s {
-                end_reason = "stopped";
-                break;
-            }
         }
     }
-    let rms = if stats.n > 0 {
-        (stats.sum_e2 / stats.n as f64).sqrt()
-    } else {
-        0.0
-    };
-    let lane_kept = stats.e_lo >= road.e_min() && stats.e_hi <= road.e_max();
-    eprintln!(
-        "tracker: {end_reason}: {:.1} m in {:.2} s, {} plans ({} foreign ignored), max |e - e_plan| {:.3} m, rms {:.3} m, lane [{:.2}, {:.2}] m{}",
-        plant.x[ix::S],
-        plant.x[ix::T],
-        inbox.plans,
-        inbox.foreign.total(),
-        stats.max_e,
-        rms,
-        stats.e_lo,
-        stats.e_hi,
-        if lane_kept { "" } else { " LEFT THE LANE" }
-    );
-    let us = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-3;
-    Ok(serde_json::json!({
-        "process": "tracker",
-        "end_reason": end_reason,
-        "laps_or_distance_m": plant.x[ix::S],
-        "laps": plant.x[ix::S] / road.lap(),
-        "sim_time_s": plant.x[ix::T],
-        "plans_received": inbox.plans,
-        "plans_rejected": inbox.rejected,
-        "plans_foreign": inbox.foreign.total(),
-        "plans_foreign_by_reason": {
-            "run_id": inbox.foreign.run_id,
-            "state_seq": inbox.foreign.state_seq,
-        },
-        "run_id": format!("{:#018x}", inbox.own.run_id()),
-        "plans_not_converged": plans_not_converged,
-        "max_lateral_error_m": stats.max_e,
-        "rms_lateral_error_m": rms,
-        "max_sideslip_error_rad": stats.max_beta,
-        "max_heading_error_rad": stats.max_dpsi,
-        "max_speed_error_mps": stats.max_v,
-        "e_min_reached_m": stats.e_lo,
-        "e_max_reached_m": stats.e_hi,
-        "lane_kept": lane_kept,
-        "stale": ever_stale,
-        "stale_at_sim_s": if stale_at_s.is_finite() { serde_json::json!(stale_at_s) } else { serde_json::Value::Null },
-        "stopped": plant.stopped,
-        "final_speed_mps": plant.x[ix::V],
-        "plan_latency_ms_p50": us(&inbox.plan_lat, 0.5) * 1e-3,
-        "plan_latency_ms_p99": us(&inbox.plan_lat, 0.99) * 1e-3,
-        "ipc_latency_us_p50": us(&inbox.ipc_lat, 0.5),
-        "ipc_latency_us_p99": us(&inbox.ipc_lat, 0.99),
-        "ipc_latency_samples": inbox.ipc_lat.count(),
-    }))
+    Ok(tl.report(end_reason))
 }
 
 #[cfg(test)]

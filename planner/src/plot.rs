@@ -14,16 +14,16 @@ use plotters::style::{register_font, FontStyle};
 use crate::model::{iu, ix};
 use crate::trajectory::Trajectory;
 
-/// Size of the PNG written by [`plot_trajectory`] [px].
+/// Size of the PNG written by [`plot_trajectory`] \[px\].
 pub const FIGURE_SIZE: (u32, u32) = (1400, 1000);
 
-/// Width of the left (top view) half of the figure [px].
+/// Width of the left (top view) half of the figure \[px\].
 const LEFT_WIDTH: u32 = 700;
 
 /// Font family every text of the figure uses (registered from the bundled DejaVu Sans).
 pub(crate) const FONT: &str = "sans-serif";
 
-/// A polyline in the plane, (x, y) [m] per node.
+/// A polyline in the plane, (x, y) \[m\] per node.
 pub type Polyline = Vec<(f64, f64)>;
 
 /// Why a figure could not be drawn.
@@ -565,10 +565,10 @@ pub fn plot_trajectory(traj: &Trajectory, path: &Path) -> Result<(), PlotError> 
     Ok(())
 }
 
-/// Outline drawn by [`plot_footprint`]: Lexus LC 500 length and width [m] (spec sheet).
+/// Outline drawn by [`plot_footprint`]: Lexus LC 500 length and width \[m\] (spec sheet).
 const CAR_OUTLINE: (f64, f64) = (4.77, 1.92);
 
-/// Size of the PNG written by [`plot_footprint`] [px].
+/// Size of the PNG written by [`plot_footprint`] \[px\].
 pub const FOOTPRINT_SIZE: (u32, u32) = (1400, 900);
 
 /// Corners of the car's outline at node `k`: centred on the CG, turned to the body

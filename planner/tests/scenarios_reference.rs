@@ -144,7 +144,7 @@ fn ten_segments_with_the_shipped_objective() {
     }
 }
 
-/// Total steering variation sum |delta_k - delta_{k-1}| [rad] of a solved plan.
+/// Total steering variation sum |delta_k - delta_{k-1}| \[rad\] of a solved plan.
 fn steering_variation(p: &Planner<100>) -> f64 {
     p.controls()
         .windows(2)

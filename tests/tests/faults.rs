@@ -428,3 +428,55 @@ fn a_second_publisher_reusing_seq_values_is_planned() {
     assert_eq!(sp["state_run_switches"], 2, "{sp}");
     assert_eq!(sp["states_rejected"], 0, "{sp}");
 }
+
+/// Starts `bin` with stdout and stderr pipes whose read ends are closed at once (a killed
+/// `trajopt closed-loop` parent), lets it run, closes its stdin and waits for its exit
+/// status: every write it makes returns EPIPE.
+fn run_with_closed_output(bin: &str, prefix: &str, extra: &[&str]) -> std::process::ExitStatus {
+    let mut c = command(bin);
+    c.args(["--service-prefix", prefix, "--exit-on-stdin-eof"])
+        .args(extra)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let mut child = c.spawn().unwrap_or_else(|e| panic!("spawn {bin}: {e}"));
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    // Long enough to load the files, open the services and log that it is up.
+    std::thread::sleep(Duration::from_secs(2));
+    drop(child.stdin.take());
+    let until = Instant::now() + Duration::from_secs(60);
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) => return status,
+            Ok(None) if Instant::now() < until => std::thread::sleep(Duration::from_millis(50)),
+            _ => {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!("{bin} did not stop within 60 s of its stdin closing");
+            }
+        }
+    }
+}
+
+/// With its parent gone (stdout and stderr pipes closed), a process logs into the void
+/// and stops cleanly when asked: no panic (exit code 101) on a broken pipe.
+#[test]
+fn processes_stop_cleanly_when_their_output_pipes_are_closed() {
+    let _serial = serial();
+    let p = prefix("epipe");
+    let planner = run_with_closed_output("planner_proc", &p, &[]);
+    assert_ne!(
+        planner.code(),
+        Some(101),
+        "planner_proc panicked: {planner}"
+    );
+    assert!(planner.success(), "planner_proc: {planner}");
+    let tracker = run_with_closed_output("tracker_proc", &p, &["--first-plan-timeout-s", "60"]);
+    assert_ne!(
+        tracker.code(),
+        Some(101),
+        "tracker_proc panicked: {tracker}"
+    );
+    assert!(tracker.success(), "tracker_proc: {tracker}");
+}

@@ -24,6 +24,7 @@ use ipc::road::Scenario;
 use ipc::services::{publish_state, IpcError, Services};
 use planner::model::ix;
 
+#[allow(rustdoc::broken_intra_doc_links)] // clap prints these docs as --help: unit brackets stay unescaped
 #[derive(Parser, Debug)]
 #[command(
     name = "inject_state",
@@ -164,12 +165,15 @@ fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(&cli) {
-        Ok(v) => {
-            println!("{v}");
-            ExitCode::SUCCESS
-        }
+        Ok(v) => match ipc::out::print_line(&v) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                ipc::elog!("inject_state: cannot write the report: {e}");
+                ExitCode::from(1)
+            }
+        },
         Err(e) => {
-            eprintln!("inject_state: error: {e}");
+            ipc::elog!("inject_state: error: {e}");
             match e {
                 Error::Setup(_) => ExitCode::from(2),
                 Error::Ipc(_) | Error::Timeout(_) => ExitCode::from(1),

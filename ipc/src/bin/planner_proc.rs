@@ -18,12 +18,15 @@ struct Cli {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match ipc::planner_proc::run(&cli.args) {
-        Ok(summary) => {
-            println!("{summary}");
-            ExitCode::SUCCESS
-        }
+        Ok(summary) => match ipc::out::print_line(&summary) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                ipc::elog!("planner_proc: cannot write the summary: {e}");
+                ExitCode::from(1)
+            }
+        },
         Err(e) => {
-            eprintln!("planner_proc: error: {e}");
+            ipc::elog!("planner_proc: error: {e}");
             match e {
                 ipc::planner_proc::PlannerProcError::Setup(_) => ExitCode::from(2),
                 ipc::planner_proc::PlannerProcError::Ipc(_) => ExitCode::from(1),

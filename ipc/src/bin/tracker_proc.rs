@@ -18,12 +18,15 @@ struct Cli {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match ipc::tracker_proc::run(&cli.args) {
-        Ok(summary) => {
-            println!("{summary}");
-            ExitCode::SUCCESS
-        }
+        Ok(summary) => match ipc::out::print_line(&summary) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                ipc::elog!("tracker_proc: cannot write the summary: {e}");
+                ExitCode::from(1)
+            }
+        },
         Err(e) => {
-            eprintln!("tracker_proc: error: {e}");
+            ipc::elog!("tracker_proc: error: {e}");
             match e {
                 ipc::tracker_proc::TrackerProcError::Setup(_) => ExitCode::from(2),
                 _ => ExitCode::from(1),

@@ -24,9 +24,9 @@ pub struct BarrierRun {
     pub status: &'static str,
     /// Iterations.
     pub iterations: usize,
-    /// Median solve time over the repeats [ms].
+    /// Median solve time over the repeats \[ms\].
     pub median_ms: f64,
-    /// t_N of the returned iterate [s].
+    /// t_N of the returned iterate \[s\].
     pub t_final: f64,
     /// Max constraint violation of the returned iterate.
     pub max_violation: f64,

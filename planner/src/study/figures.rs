@@ -10,7 +10,7 @@ use super::stiffness::StiffnessStudy;
 use crate::model::{NX, STATE_NAMES};
 use crate::plot::{draw_err, ensure_font, PlotError, FONT};
 
-/// Size of both figures [px].
+/// Size of both figures \[px\].
 pub const STUDY_FIGURE_SIZE: (u32, u32) = (1200, 800);
 
 /// Log-axis range covering `v` (positive finite values) with a margin of a factor 2 below
@@ -28,7 +28,7 @@ fn log_range(v: impl Iterator<Item = f64>, up: f64) -> std::ops::Range<f64> {
     }
 }
 
-/// Fig. 4a: max NRMSE [%] (log) against the median solve time [ms] (log), one point per
+/// Fig. 4a: max NRMSE [%] (log) against the median solve time \[ms\] (log), one point per
 /// integrator: filled blue = A-stable, filled orange = not A-stable, red cross = the solve
 /// did not succeed (label carries the status). The ground truth (NRMSE 0 by definition)
 /// and points without a positive NRMSE are left out and named in the caption.

@@ -138,11 +138,11 @@ pub struct IntegratorRun {
     pub success: bool,
     /// Interior-point iterations.
     pub iterations: usize,
-    /// Median wall-clock solve time [ms].
+    /// Median wall-clock solve time \[ms\].
     pub median_ms: f64,
-    /// Every solve's time [ms].
+    /// Every solve's time \[ms\].
     pub solve_ms_all: Vec<f64>,
-    /// t_N of the returned point [s].
+    /// t_N of the returned point \[s\].
     pub t_final: f64,
     /// Largest constraint violation of the returned point (scaled NLP units).
     pub max_violation: f64,
@@ -183,7 +183,7 @@ pub struct IntegratorStudy {
     pub n_intervals: usize,
     /// Solves per integrator.
     pub repeat: usize,
-    /// Solver wall-clock cap per solve [s].
+    /// Solver wall-clock cap per solve \[s\].
     pub max_time_s: f64,
     /// Name of the ground truth.
     pub reference: &'static str,

@@ -33,11 +33,11 @@ pub struct SegmentRun {
     pub status: &'static str,
     /// Iterations of the (deterministic) solve.
     pub iterations: usize,
-    /// Median wall-clock solve time over the repeats [ms].
+    /// Median wall-clock solve time over the repeats \[ms\].
     pub median_ms: f64,
-    /// Final time t_N of the returned iterate [s].
+    /// Final time t_N of the returned iterate \[s\].
     pub t_final: f64,
-    /// t_N of the reference solution [s], when the reference table lists the segment.
+    /// t_N of the reference solution \[s\], when the reference table lists the segment.
     pub reference_t_final: Option<f64>,
     /// (t_final - reference) / reference, when known.
     pub rel_error: Option<f64>,

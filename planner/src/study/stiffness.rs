@@ -39,7 +39,7 @@ use num_dual::DualSVec64;
 pub struct NodeStiffness {
     /// Node index k.
     pub k: usize,
-    /// Arc length s_k [m].
+    /// Arc length s_k \[m\].
     pub s: f64,
     /// Stiffness ratio of eq. (7) (None if no eigenvalue has a negative real part).
     pub ratio: Option<f64>,
@@ -167,7 +167,7 @@ pub struct StiffnessStudy {
     pub dynamic_peak_dominant_state: Option<&'static str>,
 }
 
-/// J = d(dx/ds)/dx at (x, u; kappa), row-major [i][l].
+/// J = d(dx/ds)/dx at (x, u; kappa), row-major \[i\]\[l\].
 pub fn spatial_jacobian(
     p: &VehicleParams,
     x: &[f64; NX],

@@ -16,9 +16,9 @@ use std::path::Path;
 pub const KNOT_SPACING_M: f64 = 5.0;
 /// Weight of the third-order cyclic difference penalty.
 pub const PENALTY_LAMBDA: f64 = 10.0;
-/// Output row spacing [m].
+/// Output row spacing \[m\].
 const DS_OUT_M: f64 = 1.0;
-/// Parameter step of the arc-length quadrature [m].
+/// Parameter step of the arc-length quadrature \[m\].
 const DU_DENSE_M: f64 = 0.02;
 /// Columns of a raw centerline file (given in a `#` comment line upstream).
 const RAW_COLUMNS: [&str; 4] = ["x_m", "y_m", "w_tr_right_m", "w_tr_left_m"];
@@ -214,11 +214,11 @@ fn lerp(v: &[f64], (i, t): (usize, f64)) -> f64 {
 
 /// The raw points of a closed centerline, parametrized by chord length.
 struct ChordParameters {
-    /// The points (x, y) [m].
+    /// The points (x, y) \[m\].
     points: Vec<[f64; 2]>,
-    /// Chord-length parameter u of every point (u_0 = 0) [m].
+    /// Chord-length parameter u of every point (u_0 = 0) \[m\].
     u_raw: Vec<f64>,
-    /// Total chord length, the closing chord back to the first point included [m].
+    /// Total chord length, the closing chord back to the first point included \[m\].
     period: f64,
 }
 

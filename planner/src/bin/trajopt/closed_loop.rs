@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use crate::paths::resolve;
 
+#[allow(rustdoc::broken_intra_doc_links)] // clap prints these docs as --help: unit brackets stay unescaped
 #[derive(clap::Args, Debug)]
 pub struct ClosedLoopArgs {
     /// Scenario file (a closed road such as the oval).

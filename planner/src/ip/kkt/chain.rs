@@ -153,6 +153,166 @@ pub struct ChainSplit<K> {
     ry: Vec<f64>,
 }
 
+/// Stage and local index of variable `v` when it is a state of stage 0..=N.
+fn state_of(st: &StageStructure, v: usize) -> Option<(usize, usize)> {
+    let (s, l) = st.locate(v);
+    (l < st.nx && s <= st.n_stages).then_some((s, l))
+}
+
+/// The Jacobian entries (entry index, column) of every non-path row; `None` when an
+/// entry lies outside the `m` x `n` Jacobian.
+fn row_entries(
+    st: &StageStructure,
+    n: usize,
+    jac_rows: &[usize],
+    jac_cols: &[usize],
+) -> Option<Vec<Vec<(usize, usize)>>> {
+    let m = st.rows.len();
+    // Entries per row (only rows that can be chain rows matter).
+    let mut row_entries: Vec<Vec<(usize, usize)>> = vec![Vec::new(); m];
+    for (q, (&r, &c)) in jac_rows.iter().zip(jac_cols).enumerate() {
+        if r >= m || c >= n {
+            return None;
+        }
+        if !matches!(st.rows[r], RowRole::Path) {
+            row_entries[r].push((q, c));
+        }
+    }
+    Some(row_entries)
+}
+
+/// Which states are chain states (no Hessian entry; only their own dynamics rows with two
+/// entries, and one initial row with one), and each state's initial row. `None` when a
+/// Hessian entry lies outside `n` x `n`.
+fn chain_states(
+    st: &StageStructure,
+    n: usize,
+    hess_rows: &[usize],
+    hess_cols: &[usize],
+    jac_rows: &[usize],
+    jac_cols: &[usize],
+    row_entries: &[Vec<(usize, usize)>],
+) -> Option<(Vec<bool>, Vec<Option<usize>>)> {
+    let nx = st.nx;
+    let mut chain_state = vec![true; nx];
+    for (&r, &c) in hess_rows.iter().zip(hess_cols) {
+        if r >= n || c >= n {
+            return None;
+        }
+        for v in [r, c] {
+            if let Some((_, l)) = state_of(st, v) {
+                chain_state[l] = false;
+            }
+        }
+    }
+    // Every entry on a state-i variable must sit in one of i's chain rows, and those
+    // rows have exactly their two (initial: one) entries.
+    let mut init_row = vec![None; nx];
+    for (&r, &c) in jac_rows.iter().zip(jac_cols) {
+        let Some((s, l)) = state_of(st, c) else {
+            continue;
+        };
+        if !chain_state[l] {
+            continue;
+        }
+        let ok = match st.rows[r] {
+            RowRole::Dynamics { stage, index } => {
+                index == l
+                    && (s == stage || s == stage + 1)
+                    && row_entries[r].len() == 2
+                    && row_entries[r].iter().all(|&(_, v)| {
+                        state_of(st, v)
+                            .is_some_and(|(sv, lv)| lv == l && (sv == stage || sv == stage + 1))
+                    })
+                    && row_entries[r][0].1 != row_entries[r][1].1
+            }
+            RowRole::Initial => {
+                let first = init_row[l].is_none() || init_row[l] == Some(r);
+                if first {
+                    init_row[l] = Some(r);
+                }
+                s == 0 && first && row_entries[r].len() == 1
+            }
+            RowRole::Path => false,
+        };
+        if !ok {
+            chain_state[l] = false;
+        }
+    }
+    // Dynamics rows of a chain state must not touch other states either (checked
+    // above through their two entries); each needs its initial row.
+    for l in 0..nx {
+        if chain_state[l] && init_row[l].is_none() {
+            chain_state[l] = false;
+        }
+    }
+    Some((chain_state, init_row))
+}
+
+/// The chain of every chain state (its variables, rows and value positions) and which
+/// rows are chain rows; `None` when a chain lacks a dynamics row or an entry is off the
+/// chain's bidiagonal.
+fn build_chains(
+    st: &StageStructure,
+    chain_state: &[bool],
+    init_row: &[Option<usize>],
+    row_entries: &[Vec<(usize, usize)>],
+) -> Option<(Vec<Chain>, Vec<bool>)> {
+    let (nx, nz, big) = (st.nx, st.nx + st.nu, st.n_stages);
+    let mut dyn_row = vec![usize::MAX; big * nx];
+    for (r, role) in st.rows.iter().enumerate() {
+        if let RowRole::Dynamics { stage, index } = *role {
+            if stage < big && index < nx {
+                dyn_row[stage * nx + index] = r;
+            }
+        }
+    }
+    let mut chains = Vec::new();
+    let mut is_chain_row = vec![false; st.rows.len()];
+    for l in (0..nx).filter(|&l| chain_state[l]) {
+        let len = big + 1;
+        let vars: Vec<usize> = (0..len).map(|k| k * nz + l).collect();
+        let mut rows = vec![init_row[l]?];
+        for k in 0..big {
+            let r = dyn_row[k * nx + l];
+            if r == usize::MAX {
+                return None;
+            }
+            rows.push(r);
+        }
+        let mut diag_q = vec![usize::MAX; len];
+        let mut sub_q = vec![usize::MAX; len];
+        for (k, &r) in rows.iter().enumerate() {
+            for &(q, v) in &row_entries[r] {
+                if v == vars[k] {
+                    diag_q[k] = q;
+                } else if k > 0 && v == vars[k - 1] {
+                    sub_q[k] = q;
+                } else {
+                    return None;
+                }
+            }
+            is_chain_row[r] = true;
+        }
+        if diag_q.contains(&usize::MAX) || sub_q[1..].contains(&usize::MAX) {
+            return None;
+        }
+        let z = vec![0.0; len];
+        chains.push(Chain {
+            vars,
+            rows,
+            diag_q,
+            sub_q,
+            a: z.clone(),
+            b: z.clone(),
+            d: z.clone(),
+            p: z.clone(),
+            det: z,
+        });
+    }
+    Some((chains, is_chain_row))
+}
+
 impl Reduced {
     /// Finds the chain states of `st` from the patterns; `None` when there are none (or the
     /// layout is not what the stage structure says).
@@ -164,131 +324,48 @@ impl Reduced {
         jac_rows: &[usize],
         jac_cols: &[usize],
     ) -> Option<Self> {
+        if st.n() != n || st.nx == 0 {
+            return None;
+        }
+        let row_entries = row_entries(st, n, jac_rows, jac_cols)?;
+        let (chain_state, init_row) = chain_states(
+            st,
+            n,
+            hess_rows,
+            hess_cols,
+            jac_rows,
+            jac_cols,
+            &row_entries,
+        )?;
+        if !chain_state.contains(&true) {
+            return None;
+        }
+        let (chains, is_chain_row) = build_chains(st, &chain_state, &init_row, &row_entries)?;
+        Self::without_chains(
+            st,
+            n,
+            &chain_state,
+            &is_chain_row,
+            chains,
+            [hess_rows, hess_cols],
+            [jac_rows, jac_cols],
+        )
+    }
+
+    /// The problem without the chain states and rows: renumbered variables, rows and
+    /// pattern entries (chain rows' Jacobian entries as [`SKIP_ENTRY`]).
+    fn without_chains(
+        st: &StageStructure,
+        n: usize,
+        chain_state: &[bool],
+        is_chain_row: &[bool],
+        chains: Vec<Chain>,
+        [hess_rows, hess_cols]: [&[usize]; 2],
+        [jac_rows, jac_cols]: [&[usize]; 2],
+    ) -> Option<Self> {
         let (nx, nz, big) = (st.nx, st.nx + st.nu, st.n_stages);
-        if st.n() != n || nx == 0 {
-            return None;
-        }
         let m = st.rows.len();
-        let state_of = |v: usize| {
-            let (s, l) = st.locate(v);
-            (l < nx && s <= big).then_some((s, l))
-        };
-        // Entries per row (only rows that can be chain rows matter).
-        let mut row_entries: Vec<Vec<(usize, usize)>> = vec![Vec::new(); m];
-        for (q, (&r, &c)) in jac_rows.iter().zip(jac_cols).enumerate() {
-            if r >= m || c >= n {
-                return None;
-            }
-            if !matches!(st.rows[r], RowRole::Path) {
-                row_entries[r].push((q, c));
-            }
-        }
-        let mut chain_state = vec![true; nx];
-        for (&r, &c) in hess_rows.iter().zip(hess_cols) {
-            if r >= n || c >= n {
-                return None;
-            }
-            for v in [r, c] {
-                if let Some((_, l)) = state_of(v) {
-                    chain_state[l] = false;
-                }
-            }
-        }
-        // Every entry on a state-i variable must sit in one of i's chain rows, and those
-        // rows have exactly their two (initial: one) entries.
-        let mut init_row = vec![None; nx];
-        for (&r, &c) in jac_rows.iter().zip(jac_cols) {
-            let Some((s, l)) = state_of(c) else { continue };
-            if !chain_state[l] {
-                continue;
-            }
-            let ok = match st.rows[r] {
-                RowRole::Dynamics { stage, index } => {
-                    index == l
-                        && (s == stage || s == stage + 1)
-                        && row_entries[r].len() == 2
-                        && row_entries[r].iter().all(|&(_, v)| {
-                            state_of(v)
-                                .is_some_and(|(sv, lv)| lv == l && (sv == stage || sv == stage + 1))
-                        })
-                        && row_entries[r][0].1 != row_entries[r][1].1
-                }
-                RowRole::Initial => {
-                    let first = init_row[l].is_none() || init_row[l] == Some(r);
-                    if first {
-                        init_row[l] = Some(r);
-                    }
-                    s == 0 && first && row_entries[r].len() == 1
-                }
-                RowRole::Path => false,
-            };
-            if !ok {
-                chain_state[l] = false;
-            }
-        }
-        // Dynamics rows of a chain state must not touch other states either (checked
-        // above through their two entries); each needs its initial row.
-        for l in 0..nx {
-            if chain_state[l] && init_row[l].is_none() {
-                chain_state[l] = false;
-            }
-        }
         let nc = chain_state.iter().filter(|&&c| c).count();
-        if nc == 0 {
-            return None;
-        }
-        // Chains.
-        let mut dyn_row = vec![usize::MAX; big * nx];
-        for (r, role) in st.rows.iter().enumerate() {
-            if let RowRole::Dynamics { stage, index } = *role {
-                if stage < big && index < nx {
-                    dyn_row[stage * nx + index] = r;
-                }
-            }
-        }
-        let mut chains = Vec::new();
-        let mut is_chain_row = vec![false; m];
-        for l in (0..nx).filter(|&l| chain_state[l]) {
-            let len = big + 1;
-            let vars: Vec<usize> = (0..len).map(|k| k * nz + l).collect();
-            let mut rows = vec![init_row[l]?];
-            for k in 0..big {
-                let r = dyn_row[k * nx + l];
-                if r == usize::MAX {
-                    return None;
-                }
-                rows.push(r);
-            }
-            let mut diag_q = vec![usize::MAX; len];
-            let mut sub_q = vec![usize::MAX; len];
-            for (k, &r) in rows.iter().enumerate() {
-                for &(q, v) in &row_entries[r] {
-                    if v == vars[k] {
-                        diag_q[k] = q;
-                    } else if k > 0 && v == vars[k - 1] {
-                        sub_q[k] = q;
-                    } else {
-                        return None;
-                    }
-                }
-                is_chain_row[r] = true;
-            }
-            if diag_q.contains(&usize::MAX) || sub_q[1..].contains(&usize::MAX) {
-                return None;
-            }
-            let z = vec![0.0; len];
-            chains.push(Chain {
-                vars,
-                rows,
-                diag_q,
-                sub_q,
-                a: z.clone(),
-                b: z.clone(),
-                d: z.clone(),
-                p: z.clone(),
-                det: z,
-            });
-        }
         // Reduced indices.
         let nx_r = nx - nc;
         let nz_r = nz - nc;

@@ -67,6 +67,127 @@ impl std::fmt::Debug for SparseLdlt {
 #[error("symbolic KKT analysis failed: {0}")]
 pub struct SymbolicError(String);
 
+/// The upper triangle (row <= col) of the KKT pattern with the full diagonal, sorted and
+/// deduplicated, and where each source entry lands in its value array.
+fn kkt_pattern(
+    n: usize,
+    m: usize,
+    hess_rows: &[usize],
+    hess_cols: &[usize],
+    jac_rows: &[usize],
+    jac_cols: &[usize],
+) -> Result<(SymbolicSparseColMat<usize>, ValueMap), SymbolicError> {
+    let dim = n + m;
+    // Upper-triangle (row <= col) coordinates of every source entry.
+    let mut coords: Vec<(usize, usize)> =
+        Vec::with_capacity(hess_rows.len() + jac_rows.len() + dim);
+    for (&r, &c) in hess_rows.iter().zip(hess_cols) {
+        if r >= n || c >= n {
+            return Err(SymbolicError(format!(
+                "Hessian entry ({r},{c}) out of range"
+            )));
+        }
+        coords.push((r.min(c), r.max(c)));
+    }
+    for (&r, &c) in jac_rows.iter().zip(jac_cols) {
+        if r >= m || c >= n {
+            return Err(SymbolicError(format!(
+                "Jacobian entry ({r},{c}) out of range"
+            )));
+        }
+        coords.push((c, n + r));
+    }
+    for i in 0..dim {
+        coords.push((i, i));
+    }
+    // Unique sorted by (col, row).
+    let mut keys: Vec<(usize, usize)> = coords.iter().map(|&(r, c)| (c, r)).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let mut col_ptr = vec![0usize; dim + 1];
+    let mut row_idx = Vec::with_capacity(keys.len());
+    for &(c, r) in &keys {
+        col_ptr[c + 1] += 1;
+        row_idx.push(r);
+    }
+    for c in 0..dim {
+        col_ptr[c + 1] += col_ptr[c];
+    }
+    let find = |r: usize, c: usize| -> usize {
+        // keys is sorted by (col,row): binary search.
+        keys.binary_search(&(c, r)).unwrap_or(usize::MAX)
+    };
+    let nh = hess_rows.len();
+    let nj = jac_rows.len();
+    let map = ValueMap {
+        hess: coords[..nh].iter().map(|&(r, c)| find(r, c)).collect(),
+        jac: coords[nh..nh + nj]
+            .iter()
+            .map(|&(r, c)| find(r, c))
+            .collect(),
+        diag: (0..dim).map(|i| find(i, i)).collect(),
+    };
+    let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
+    Ok((pattern, map))
+}
+
+/// The AMD permutation of a pattern and the permuted upper triangle P K P^T.
+struct AmdPermuted {
+    perm_fwd: Vec<usize>,
+    perm_inv: Vec<usize>,
+    /// Permuted pattern (faer's own permuted layout).
+    ppattern: SymbolicSparseColMat<usize>,
+    /// For each permuted entry, the index of its source entry.
+    pmap: Vec<usize>,
+}
+
+/// Orders `pattern` by AMD and permutes it once, carrying each entry's source index.
+fn amd_permuted(
+    pattern: &SymbolicSparseColMat<usize>,
+    params_sym: CholeskySymbolicParams<'_>,
+) -> Result<AmdPermuted, SymbolicError> {
+    let dim = pattern.ncols();
+    let nnz = pattern.row_idx().len();
+    let amd = factorize_symbolic_cholesky(
+        pattern.as_ref(),
+        Side::Upper,
+        SymmetricOrdering::Amd,
+        params_sym,
+    )
+    .map_err(|e| SymbolicError(format!("{e:?}")))?;
+    let (perm_fwd, perm_inv): (Vec<usize>, Vec<usize>) = match amd.perm() {
+        Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
+        None => ((0..dim).collect(), (0..dim).collect()),
+    };
+    // Permute once, carrying each entry's source index as its value (exact in f64).
+    let slots: Vec<f64> = (0..nnz).map(|i| i as f64).collect();
+    let mut pslots = vec![0.0; nnz];
+    let mut pcol_ptr = vec![0usize; dim + 1];
+    let mut prow_idx = vec![0usize; nnz];
+    {
+        let perm = faer::perm::PermRef::new_checked(&perm_fwd, &perm_inv, dim);
+        let mut mem = MemBuffer::new(StackReq::new::<usize>(dim));
+        permute_self_adjoint_to_unsorted(
+            &mut pslots,
+            &mut pcol_ptr,
+            &mut prow_idx,
+            SparseColMatRef::new(pattern.as_ref(), &slots),
+            perm,
+            Side::Upper,
+            Side::Upper,
+            MemStack::new(&mut mem),
+        );
+    }
+    let pmap: Vec<usize> = pslots.iter().map(|&v| v as usize).collect();
+    let ppattern = SymbolicSparseColMat::new_unsorted_checked(dim, dim, pcol_ptr, None, prow_idx);
+    Ok(AmdPermuted {
+        perm_fwd,
+        perm_inv,
+        ppattern,
+        pmap,
+    })
+}
+
 impl SparseLdlt {
     /// Builds the KKT pattern from the Hessian (lower triangle) and Jacobian coordinates and
     /// runs the symbolic analysis. Allocates; call once at setup.
@@ -79,97 +200,16 @@ impl SparseLdlt {
         jac_cols: &[usize],
     ) -> Result<Self, SymbolicError> {
         let dim = n + m;
-        // Upper-triangle (row <= col) coordinates of every source entry.
-        let mut coords: Vec<(usize, usize)> =
-            Vec::with_capacity(hess_rows.len() + jac_rows.len() + dim);
-        for (&r, &c) in hess_rows.iter().zip(hess_cols) {
-            if r >= n || c >= n {
-                return Err(SymbolicError(format!(
-                    "Hessian entry ({r},{c}) out of range"
-                )));
-            }
-            coords.push((r.min(c), r.max(c)));
-        }
-        for (&r, &c) in jac_rows.iter().zip(jac_cols) {
-            if r >= m || c >= n {
-                return Err(SymbolicError(format!(
-                    "Jacobian entry ({r},{c}) out of range"
-                )));
-            }
-            coords.push((c, n + r));
-        }
-        for i in 0..dim {
-            coords.push((i, i));
-        }
-        // Unique sorted by (col, row).
-        let mut keys: Vec<(usize, usize)> = coords.iter().map(|&(r, c)| (c, r)).collect();
-        keys.sort_unstable();
-        keys.dedup();
-        let mut col_ptr = vec![0usize; dim + 1];
-        let mut row_idx = Vec::with_capacity(keys.len());
-        for &(c, r) in &keys {
-            col_ptr[c + 1] += 1;
-            row_idx.push(r);
-        }
-        for c in 0..dim {
-            col_ptr[c + 1] += col_ptr[c];
-        }
-        let find = |r: usize, c: usize| -> usize {
-            // keys is sorted by (col,row): binary search.
-            keys.binary_search(&(c, r)).unwrap_or(usize::MAX)
-        };
-        let nh = hess_rows.len();
-        let nj = jac_rows.len();
-        let map = ValueMap {
-            hess: coords[..nh].iter().map(|&(r, c)| find(r, c)).collect(),
-            jac: coords[nh..nh + nj]
-                .iter()
-                .map(|&(r, c)| find(r, c))
-                .collect(),
-            diag: (0..dim).map(|i| find(i, i)).collect(),
-        };
-        let nnz = keys.len();
-        let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
+        let (pattern, map) = kkt_pattern(n, m, hess_rows, hess_cols, jac_rows, jac_cols)?;
+        let nnz = pattern.row_idx().len();
         let params_sym = CholeskySymbolicParams {
             // Simplicial: faster than supernodal on these KKT systems.
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
             ..Default::default()
         };
-        let amd = factorize_symbolic_cholesky(
-            pattern.as_ref(),
-            Side::Upper,
-            SymmetricOrdering::Amd,
-            params_sym,
-        )
-        .map_err(|e| SymbolicError(format!("{e:?}")))?;
-        let (perm_fwd, perm_inv): (Vec<usize>, Vec<usize>) = match amd.perm() {
-            Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
-            None => ((0..dim).collect(), (0..dim).collect()),
-        };
-        // Permute once, carrying each entry's source index as its value (exact in f64).
-        let slots: Vec<f64> = (0..nnz).map(|i| i as f64).collect();
-        let mut pslots = vec![0.0; nnz];
-        let mut pcol_ptr = vec![0usize; dim + 1];
-        let mut prow_idx = vec![0usize; nnz];
-        {
-            let perm = faer::perm::PermRef::new_checked(&perm_fwd, &perm_inv, dim);
-            let mut mem = MemBuffer::new(StackReq::new::<usize>(dim));
-            permute_self_adjoint_to_unsorted(
-                &mut pslots,
-                &mut pcol_ptr,
-                &mut prow_idx,
-                SparseColMatRef::new(pattern.as_ref(), &slots),
-                perm,
-                Side::Upper,
-                Side::Upper,
-                MemStack::new(&mut mem),
-            );
-        }
-        let pmap: Vec<usize> = pslots.iter().map(|&v| v as usize).collect();
-        let ppattern =
-            SymbolicSparseColMat::new_unsorted_checked(dim, dim, pcol_ptr, None, prow_idx);
+        let amd = amd_permuted(&pattern, params_sym)?;
         let symbolic = factorize_symbolic_cholesky(
-            ppattern.as_ref(),
+            amd.ppattern.as_ref(),
             Side::Upper,
             SymmetricOrdering::Identity,
             params_sym,
@@ -187,11 +227,11 @@ impl SparseLdlt {
             pattern,
             values: vec![0.0; nnz],
             map,
-            ppattern,
+            ppattern: amd.ppattern,
             pvalues: vec![0.0; nnz],
-            pmap,
-            perm_fwd,
-            perm_inv,
+            pmap: amd.pmap,
+            perm_fwd: amd.perm_fwd,
+            perm_inv: amd.perm_inv,
             symbolic,
             l_values,
             mem,

@@ -6,6 +6,7 @@ use planner::HORIZON;
 use super::{figure_written, study_inputs};
 use crate::args::StudyFiles;
 
+#[allow(rustdoc::broken_intra_doc_links)] // clap prints these docs as --help: unit brackets stay unescaped
 #[derive(clap::Args, Debug)]
 pub struct IntegratorsArgs {
     #[command(flatten)]

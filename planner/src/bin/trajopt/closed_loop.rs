@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::out::outln;
 use crate::paths::resolve;
 
 #[derive(clap::Args, Debug)]
@@ -192,9 +193,9 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
     let summary = summary_text(&obj);
     if args.json {
         eprintln!("{summary}");
-        println!("{obj}");
+        outln!("{obj}");
     } else {
-        println!("{summary}");
+        outln!("{summary}");
     }
     Ok(())
 }

@@ -13,6 +13,7 @@
 mod args;
 mod closed_loop;
 mod guess;
+mod out;
 mod paths;
 mod solve;
 mod study;

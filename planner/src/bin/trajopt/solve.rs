@@ -15,6 +15,7 @@ use planner::trajectory::Trajectory;
 use planner::HORIZON;
 
 use crate::args::{slew_weight_arg, BarrierArg, GuessArg, KktArg, OnOff};
+use crate::out::outln;
 use crate::paths::{resolve, solver_file};
 
 #[derive(clap::Args, Debug)]
@@ -149,8 +150,7 @@ pub fn run(args: SolveArgs) -> Result<(), String> {
         files: files.iter().map(|f| f.display().to_string()).collect(),
         recording,
     };
-    report.print(&planner);
-    Ok(())
+    report.print(&planner)
 }
 
 /// Loads the vehicle, scenario and solver files and applies the command-line overrides;
@@ -307,31 +307,23 @@ fn worst_rows(planner: &mut Planner<HORIZON>, count: usize) -> Vec<(String, f64)
         .collect()
 }
 
-/// Writes `<name>.csv`, `<name>.png` and `<name>_footprint.png` to `out_dir`; returns the
-/// files written (a figure that cannot be drawn is a warning, not an error).
+/// Writes `<name>.csv`, `<name>.png` and `<name>_footprint.png` to `out_dir`, each
+/// atomically (complete or not at all); returns the files written. A file that cannot be
+/// written is an error naming it.
 fn write_outputs(
     out_dir: &std::path::Path,
     name: &str,
     traj: &Trajectory,
 ) -> Result<Vec<PathBuf>, String> {
-    let mut files = Vec::new();
     std::fs::create_dir_all(out_dir)
         .map_err(|e| format!("{}: cannot create: {e}", out_dir.display()))?;
     let csv = out_dir.join(format!("{name}.csv"));
-    traj.write_csv(&csv)
-        .map_err(|e| format!("{}: cannot write: {e}", csv.display()))?;
-    files.push(csv);
+    traj.write_csv(&csv).map_err(|e| e.to_string())?;
     let png = out_dir.join(format!("{name}.png"));
-    match planner::plot::plot_trajectory(traj, &png) {
-        Ok(()) => files.push(png),
-        Err(e) => eprintln!("trajopt: warning: figure not written: {e}"),
-    }
+    planner::plot::plot_trajectory(traj, &png).map_err(|e| format!("figure: {e}"))?;
     let foot = out_dir.join(format!("{name}_footprint.png"));
-    match planner::plot::plot_footprint(traj, &foot) {
-        Ok(()) => files.push(foot),
-        Err(e) => eprintln!("trajopt: warning: footprint figure not written: {e}"),
-    }
-    Ok(files)
+    planner::plot::plot_footprint(traj, &foot).map_err(|e| format!("footprint figure: {e}"))?;
+    Ok(vec![csv, png, foot])
 }
 
 /// Everything the report of a solve shows.
@@ -360,26 +352,27 @@ struct Report<'a> {
 impl Report<'_> {
     /// Prints the summary (to stderr with `--json`, followed by the JSON object on stdout;
     /// else to stdout with the worst rows of a failed solve, the files and the recording).
-    fn print(&self, planner: &Planner<HORIZON>) {
+    fn print(&self, planner: &Planner<HORIZON>) -> Result<(), String> {
         let summary = self.summary(planner);
         if self.args.json {
             eprintln!("{summary}");
-            println!("{}", self.json(planner));
-            return;
+            outln!("{}", self.json(planner));
+            return Ok(());
         }
-        println!("{summary}");
+        outln!("{summary}");
         if !self.info.status.is_success() {
-            println!("  largest violations (scaled NLP units):");
+            outln!("  largest violations (scaled NLP units):");
             for (row, v) in &self.worst {
-                println!("    {v:.3e}  {row}");
+                outln!("    {v:.3e}  {row}");
             }
         }
         for f in &self.files {
-            println!("  wrote {f}");
+            outln!("  wrote {f}");
         }
         if let Some(path) = &self.args.record {
-            println!("  recorded {} ({})", path.display(), self.recording);
+            outln!("  recorded {} ({})", path.display(), self.recording);
         }
+        Ok(())
     }
 
     /// The three-line human summary.

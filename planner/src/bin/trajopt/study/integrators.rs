@@ -5,6 +5,7 @@ use planner::HORIZON;
 
 use super::{figure_written, study_inputs};
 use crate::args::StudyFiles;
+use crate::out::{out, outln};
 
 #[derive(clap::Args, Debug)]
 pub struct IntegratorsArgs {
@@ -73,7 +74,7 @@ pub fn run(a: IntegratorsArgs) -> Result<(), String> {
     let figure = figure_written(
         planner::study::figures::plot_integrator_study(&study, &png),
         &png,
-    );
+    )?;
     let table = format!(
         "{}{}\n",
         study.table(),
@@ -84,12 +85,10 @@ pub fn run(a: IntegratorsArgs) -> Result<(), String> {
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["figure"] = serde_json::json!(figure);
         v["steering_slew_weight"] = serde_json::json!(spec.steering_slew_weight);
-        println!("{v}");
+        outln!("{v}");
     } else {
-        print!("{table}");
-        if let Some(f) = figure {
-            println!("  wrote {f}");
-        }
+        out!("{table}");
+        outln!("  wrote {figure}");
     }
     Ok(())
 }

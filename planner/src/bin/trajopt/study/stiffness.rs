@@ -10,6 +10,7 @@ use planner::HORIZON;
 
 use super::{figure_written, study_inputs};
 use crate::args::StudyFiles;
+use crate::out::outln;
 
 #[derive(clap::Args, Debug)]
 pub struct StiffnessArgs {
@@ -41,7 +42,7 @@ pub fn run(a: StiffnessArgs) -> Result<(), String> {
     let figure = figure_written(
         planner::study::figures::plot_stiffness(&study, &title, &png),
         &png,
-    );
+    )?;
     let t_final = planner.states()[HORIZON][planner::model::ix::T];
     let summary = summary(&study, &spec, &info, t_final);
     if a.files.json {
@@ -52,12 +53,10 @@ pub fn run(a: StiffnessArgs) -> Result<(), String> {
         v["status"] = serde_json::json!(info.status.name());
         v["iterations"] = serde_json::json!(info.iterations);
         v["figure"] = serde_json::json!(figure);
-        println!("{v}");
+        outln!("{v}");
     } else {
-        println!("{summary}");
-        if let Some(f) = figure {
-            println!("  wrote {f}");
-        }
+        outln!("{summary}");
+        outln!("  wrote {figure}");
     }
     Ok(())
 }

@@ -25,6 +25,7 @@ pub use msg::{
 };
 pub use reader::{ChannelInfo, ReadError, Recording, Recovery, MAX_FILE_BYTES};
 pub use recorder::{
-    now_ns, write_recording, Record, RecordError, RecordStats, Recorder, METADATA_NAME,
+    now_ns, partial_path, write_recording, Record, RecordError, RecordStats, Recorder,
+    METADATA_NAME,
 };
 pub use writer::{CHUNK_BYTES, CHUNK_PERIOD, SYNC_PERIOD};

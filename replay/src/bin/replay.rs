@@ -16,6 +16,31 @@ use planner::config::paths::resolve_path;
 use replay::oval::{record_oval, OvalOptions};
 use replay::run::{run, RunOptions};
 
+/// Writes `args` to stdout (the [`out!`] and [`outln!`] macros): a closed pipe (`replay
+/// ... | head`) ends the program quietly with success, like the standard Unix tools; any
+/// other failure (a full disk) is returned as an error, reported with exit code 2.
+fn print(args: std::fmt::Arguments) -> Result<(), String> {
+    match planner::io::write_stdout(args) {
+        Ok(()) => Ok(()),
+        Err(e) if planner::io::is_closed(&e) => std::process::exit(0),
+        Err(e) => Err(format!("standard output: cannot write: {e}")),
+    }
+}
+
+/// `print!` to stdout through [`print`]; returns its error from the enclosing function.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        print(format_args!($($arg)*))?
+    };
+}
+
+/// `println!` to stdout through [`print`]; returns its error from the enclosing function.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        print(format_args!("{}\n", format_args!($($arg)*)))?
+    };
+}
+
 #[derive(Parser, Debug)]
 #[command(name = "replay", version, about = "Replay planner recordings (MCAP)")]
 struct Cli {
@@ -135,15 +160,15 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 v["file"] = file.display().to_string().into();
                 v["plot"] = plot.map(|p| p.display().to_string()).into();
                 v["recorder_dropped"] = rec.dropped().into();
-                println!("{v}");
+                outln!("{v}");
                 return Ok(exit(deterministic || report.different == 0));
             }
-            print!("{report}");
+            out!("{report}");
             if let Some(d) = rec.dropped().filter(|d| *d > 0) {
-                println!("recorder dropped {d} records while recording");
+                outln!("recorder dropped {d} records while recording");
             }
             if let Some(png) = &plot {
-                println!("wrote {}", png.display());
+                outln!("wrote {}", png.display());
             }
             Ok(exit(report.different == 0))
         }
@@ -153,16 +178,16 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             if json {
                 let mut v = serde_json::to_value(&info).map_err(|e| e.to_string())?;
                 v["file"] = file.display().to_string().into();
-                println!("{v}");
+                outln!("{v}");
             } else {
-                print!("{}: {info}", file.display());
+                out!("{}: {info}", file.display());
             }
             Ok(ExitCode::SUCCESS)
         }
         Command::Recover { input, output } => {
             let rec = read(&input)?;
             let stats = plan_record::write_recording(&rec, &output).map_err(|e| e.to_string())?;
-            println!(
+            outln!(
                 "wrote {} inputs and {} outputs from {} to {}",
                 stats.inputs,
                 stats.outputs,
@@ -196,7 +221,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             })
             .map_err(|e| e.to_string())?;
             let ok = summary.statuses.iter().filter(|s| **s == "optimal").count();
-            println!(
+            outln!(
                 "recorded {} inputs and {} outputs to {} ({} dropped); {ok} of {plans} optimal",
                 summary.stats.inputs,
                 summary.stats.outputs,

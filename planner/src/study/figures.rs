@@ -60,7 +60,7 @@ pub fn plot_integrator_study(study: &IntegratorStudy, path: &Path) -> Result<(),
         if !left_out.is_empty() {
             caption.push_str(&format!("; not shown: {}", left_out.join(", ")));
         }
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(caption, (FONT, 22))
             .margin(20)
             .x_label_area_size(50)

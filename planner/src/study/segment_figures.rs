@@ -163,7 +163,7 @@ pub fn plot_paths(scenario: &Path, study: &SegmentsStudy, path: &Path) -> Result
     let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
     save_png(path, (1100, 1100), |root| {
         root.fill(&WHITE).map_err(draw_err)?;
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(
                 format!("{}: segment paths (equilibrium guess)", track.name),
                 (FONT, 24),

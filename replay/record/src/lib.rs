@@ -9,7 +9,9 @@
 //!
 //! Crash safety: the file is written one closed chunk at a time (after every plan, or
 //! every [`CHUNK_PERIOD`]), so a writer killed mid-recording loses at most its open chunk,
-//! and the reader recovers every complete chunk of a file cut short ([`Recovery`]).
+//! and the reader recovers every complete chunk of a file cut short ([`Recovery`]). The file
+//! is named [`partial_path`] until it closes cleanly, so a file under the final name is
+//! always complete.
 
 pub mod cdr;
 mod msg;

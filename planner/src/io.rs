@@ -10,7 +10,7 @@
 //! Standard output is written with [`write_stdout`], which flushes after every write so a
 //! failure surfaces at the write that caused it; [`is_closed`] tells a reader that went
 //! away (a closed pipe, as with `| head`) from a stream that cannot take the bytes (a full
-//! disk).
+//! disk). Diagnostics go to standard error with [`write_stderr`], which never fails.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -73,6 +73,13 @@ pub fn write_stdout(args: std::fmt::Arguments) -> std::io::Result<()> {
     let mut out = std::io::stdout().lock();
     out.write_fmt(args)?;
     out.flush()
+}
+
+/// Writes `args` to standard error and flushes it; a failure is dropped, as there is no
+/// stream left to report it on (a diagnostic never turns into a panic or an exit code).
+pub fn write_stderr(args: std::fmt::Arguments) {
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(args).and_then(|()| err.flush());
 }
 
 /// Whether a write failed because its reader went away (a closed pipe): the output is no

@@ -34,6 +34,22 @@ macro_rules! out {
     };
 }
 
+/// `eprint!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
+/// panic.
+macro_rules! err {
+    ($($arg:tt)*) => {
+        planner::io::write_stderr(format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
+/// panic.
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        planner::io::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 /// `println!` to stdout through [`print`]; returns its error from the enclosing function.
 macro_rules! outln {
     ($($arg:tt)*) => {
@@ -113,7 +129,7 @@ fn main() -> ExitCode {
     match dispatch(cli.command) {
         Ok(code) => code,
         Err(msg) => {
-            eprintln!("replay: error: {msg}");
+            errln!("replay: error: {msg}");
             ExitCode::from(2)
         }
     }
@@ -123,7 +139,7 @@ fn main() -> ExitCode {
 fn read(file: &Path) -> Result<Recording, String> {
     let rec = Recording::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
     if let Some(r) = &rec.recovery {
-        eprintln!("replay: warning: {}: {r}", file.display());
+        errln!("replay: warning: {}: {r}", file.display());
     }
     Ok(rec)
 }
@@ -145,7 +161,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 replay::plot::plot_latency(&report, png).map_err(|e| e.to_string())?;
             }
             if json {
-                eprint!("{report}");
+                err!("{report}");
                 let differing: Vec<_> = report
                     .per_plan
                     .iter()
@@ -217,7 +233,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 out: out.clone(),
             };
             let summary = record_oval(&opts, |i, ms, status| {
-                eprintln!("plan {i:3}: {status} in {ms:.1} ms");
+                errln!("plan {i:3}: {status} in {ms:.1} ms");
             })
             .map_err(|e| e.to_string())?;
             let ok = summary.statuses.iter().filter(|s| **s == "optimal").count();

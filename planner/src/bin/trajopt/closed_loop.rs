@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::out::outln;
+use crate::out::{errln, outln};
 use crate::paths::resolve;
 
 #[derive(clap::Args, Debug)]
@@ -192,7 +192,7 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
     let obj = summary_json(&args, &prefix, t, p);
     let summary = summary_text(&obj);
     if args.json {
-        eprintln!("{summary}");
+        errln!("{summary}");
         outln!("{obj}");
     } else {
         outln!("{summary}");

@@ -20,6 +20,7 @@ mod study;
 
 use std::process::ExitCode;
 
+use crate::out::errln;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
@@ -65,7 +66,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(msg) => {
-            eprintln!("trajopt: error: {msg}");
+            errln!("trajopt: error: {msg}");
             ExitCode::from(2)
         }
     }

@@ -2,7 +2,8 @@
 //! [`out!`] macros), which turns a failed write into an error instead of a panic. A reader
 //! that went away (a closed pipe, as with `trajopt ... | head`) ends the program quietly
 //! with success, like the standard Unix tools; a stream that cannot take the bytes (a full
-//! disk) is an error, reported on stderr with exit code 2.
+//! disk) is an error, reported on stderr with exit code 2. Diagnostics go to stderr through
+//! [`errln!`] and [`err!`], which ignore a failing stderr.
 
 /// Writes `args` to stdout; exits with success when stdout is a closed pipe, and returns
 /// the error (naming the stream and the operating system's reason) when the write fails
@@ -29,4 +30,20 @@ macro_rules! outln {
     };
 }
 
-pub(crate) use {out, outln};
+/// `eprint!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
+/// panic.
+macro_rules! err {
+    ($($arg:tt)*) => {
+        planner::io::write_stderr(format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
+/// panic.
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        planner::io::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+pub(crate) use {err, errln, out, outln};

@@ -15,7 +15,7 @@ use planner::trajectory::Trajectory;
 use planner::HORIZON;
 
 use crate::args::{slew_weight_arg, BarrierArg, GuessArg, KktArg, OnOff};
-use crate::out::outln;
+use crate::out::{errln, outln};
 use crate::paths::{resolve, solver_file};
 
 #[derive(clap::Args, Debug)]
@@ -250,7 +250,7 @@ fn finish_recording(
     };
     let stats = rec.finish().map_err(|e| e.to_string())?;
     if stats.dropped > 0 {
-        eprintln!(
+        errln!(
             "trajopt: warning: recorder dropped {} records",
             stats.dropped
         );
@@ -265,11 +265,11 @@ fn finish_recording(
 
 /// Prints the solver's iteration log of the last solve to stderr.
 fn print_log(planner: &Planner<HORIZON>) {
-    eprintln!(
+    errln!(
         "iter  objective      inf_pr    inf_du    compl     mu        alpha     delta_w  nf bt step"
     );
     for l in planner.solver().log() {
-        eprintln!(
+        errln!(
             "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
             l.iter,
             l.objective,
@@ -355,7 +355,7 @@ impl Report<'_> {
     fn print(&self, planner: &Planner<HORIZON>) -> Result<(), String> {
         let summary = self.summary(planner);
         if self.args.json {
-            eprintln!("{summary}");
+            errln!("{summary}");
             outln!("{}", self.json(planner));
             return Ok(());
         }

@@ -6,7 +6,7 @@ use planner::config::{load_solver, load_vehicle};
 use planner::study::barrier;
 
 use crate::args::StudyCommon;
-use crate::out::{out, outln};
+use crate::out::{err, out, outln};
 use crate::paths::{resolve, solver_file};
 
 #[derive(clap::Args, Debug)]
@@ -44,7 +44,7 @@ pub fn run(args: StudyBarrierArgs) -> Result<(), String> {
         c.objective.slew(),
     );
     if c.json {
-        eprint!("{table}");
+        err!("{table}");
         let v = serde_json::json!({
             "scenario": args.scenario.display().to_string(),
             "repeat": c.repeat,

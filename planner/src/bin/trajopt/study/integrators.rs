@@ -5,7 +5,7 @@ use planner::HORIZON;
 
 use super::{figure_written, study_inputs};
 use crate::args::StudyFiles;
-use crate::out::{out, outln};
+use crate::out::{err, errln, out, outln};
 
 #[derive(clap::Args, Debug)]
 pub struct IntegratorsArgs {
@@ -58,7 +58,7 @@ pub fn run(a: IntegratorsArgs) -> Result<(), String> {
         reference,
     };
     let study = run_study::<HORIZON>(&spec, &settings, &config, |r| {
-        eprintln!(
+        errln!(
             "  {}: {} in {} iterations, median {:.1} ms",
             r.integrator.name(),
             r.status,
@@ -81,7 +81,7 @@ pub fn run(a: IntegratorsArgs) -> Result<(), String> {
         planner::ocp::objective::label(spec.steering_slew_weight)
     );
     if a.files.json {
-        eprint!("{table}");
+        err!("{table}");
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["figure"] = serde_json::json!(figure);
         v["steering_slew_weight"] = serde_json::json!(spec.steering_slew_weight);

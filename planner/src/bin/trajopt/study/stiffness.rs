@@ -10,7 +10,7 @@ use planner::HORIZON;
 
 use super::{figure_written, study_inputs};
 use crate::args::StudyFiles;
-use crate::out::outln;
+use crate::out::{errln, outln};
 
 #[derive(clap::Args, Debug)]
 pub struct StiffnessArgs {
@@ -46,7 +46,7 @@ pub fn run(a: StiffnessArgs) -> Result<(), String> {
     let t_final = planner.states()[HORIZON][planner::model::ix::T];
     let summary = summary(&study, &spec, &info, t_final);
     if a.files.json {
-        eprintln!("{summary}");
+        errln!("{summary}");
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["scenario"] = serde_json::json!(spec.name);
         v["steering_slew_weight"] = serde_json::json!(spec.steering_slew_weight);

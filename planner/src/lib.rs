@@ -23,6 +23,7 @@ pub mod config;
 pub mod cpu;
 pub mod elementary;
 pub mod guess;
+pub mod io;
 pub mod ip;
 pub mod model;
 pub mod ocp;

@@ -11,6 +11,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 
+use crate::io::{write_atomic, WriteError};
 use crate::model::{iu, ix};
 use crate::trajectory::Trajectory;
 
@@ -38,14 +39,50 @@ pub enum PlotError {
     /// The bundled font could not be registered.
     #[error("cannot register the plot font")]
     Font,
-    /// Drawing or writing the image failed (the plotters error, as text).
+    /// Drawing the image failed (the plotters error, as text).
     #[error("plotters: {0}")]
     Draw(String),
+    /// The PNG file could not be written (nothing is left under its name).
+    #[error(transparent)]
+    Write(#[from] WriteError),
 }
 
 /// Converts any plotters (or backend) error into [`PlotError::Draw`].
 pub(crate) fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError::Draw(e.to_string())
+}
+
+/// The drawing area of a figure rendered in memory (RGB, 8 bits per channel).
+pub type Canvas<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// Renders a `size` figure in memory with `draw` and writes it to `path` as a PNG,
+/// atomically ([`write_atomic`]): `path` holds the complete image or is left as it was,
+/// and a failed write is an error naming `path` and the operating system's reason.
+pub fn save_png<E: From<PlotError>>(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&Canvas<'_>) -> Result<(), E>,
+) -> Result<(), E> {
+    let (w, h) = size;
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        draw(&root)?;
+        root.present().map_err(draw_err)?;
+    }
+    write_atomic(path, |file| {
+        let mut encoder = png::Encoder::new(file, w, h);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_compression(png::Compression::Default);
+        encoder.set_filter(png::FilterType::Sub);
+        encoder.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
+        let mut writer = encoder.write_header()?;
+        writer.write_image_data(&rgb)?;
+        writer.finish()?;
+        Ok(())
+    })
+    .map_err(|e| E::from(PlotError::Write(e)))
 }
 
 /// Registers the bundled font once per process; later calls return the first outcome.
@@ -487,7 +524,11 @@ where
 pub fn plot_trajectory(traj: &Trajectory, path: &Path) -> Result<(), PlotError> {
     check_consistent(traj)?;
     ensure_font()?;
-    let root = BitMapBackend::new(path, FIGURE_SIZE).into_drawing_area();
+    save_png(path, FIGURE_SIZE, |root| draw_trajectory(root, traj))
+}
+
+/// Draws the figure of [`plot_trajectory`] on `root`.
+fn draw_trajectory(root: &Canvas<'_>, traj: &Trajectory) -> Result<(), PlotError> {
     root.fill(&WHITE).map_err(draw_err)?;
     let title = format!("{}: t_N = {:.3} s", traj.name, traj.t_final());
     let body = root.titled(&title, (FONT, 26)).map_err(draw_err)?;
@@ -561,7 +602,6 @@ pub fn plot_trajectory(traj: &Trajectory, path: &Path) -> Result<(), PlotError> 
         let x_desc = (i + 1 == n_panels).then_some("s [m]");
         draw_panel(panel, s_range.clone(), y_desc, x_desc, &curves)?;
     }
-    root.present().map_err(draw_err)?;
     Ok(())
 }
 
@@ -630,7 +670,11 @@ fn obstacle_polygons(center: &[(f64, f64, f64)], traj: &Trajectory) -> Vec<Polyl
 pub fn plot_footprint(traj: &Trajectory, path: &Path) -> Result<(), PlotError> {
     check_consistent(traj)?;
     ensure_font()?;
-    let root = BitMapBackend::new(path, FOOTPRINT_SIZE).into_drawing_area();
+    save_png(path, FOOTPRINT_SIZE, |root| draw_footprint(root, traj))
+}
+
+/// Draws the figure of [`plot_footprint`] on `root`.
+fn draw_footprint(root: &Canvas<'_>, traj: &Trajectory) -> Result<(), PlotError> {
     root.fill(&WHITE).map_err(draw_err)?;
     let (top, bottom) = root.split_vertically(560);
     let center = centerline_xy(&traj.kappa, traj.ds);
@@ -739,6 +783,5 @@ pub fn plot_footprint(traj: &Trajectory, path: &Path) -> Result<(), PlotError> {
     chart
         .draw_series(LineSeries::new(betas, BLUE.stroke_width(2)))
         .map_err(draw_err)?;
-    root.present().map_err(draw_err)?;
     Ok(())
 }

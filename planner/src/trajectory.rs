@@ -4,6 +4,7 @@
 use std::io::Write;
 use std::path::Path;
 
+use crate::io::{write_atomic, WriteError};
 use crate::model::{iu, ix, NU, NX};
 
 /// A planned trajectory: N + 1 states and N controls (physical units) on s_k = k ds.
@@ -52,9 +53,14 @@ impl Trajectory {
         self.u[k.min(self.u.len().saturating_sub(1))]
     }
 
-    /// Writes one row per node (see [`CSV_COLUMNS`]).
-    pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    /// Writes one row per node (see [`CSV_COLUMNS`]), atomically
+    /// ([`crate::io::write_atomic`]): `path` holds the whole table or is left as it was.
+    pub fn write_csv(&self, path: &Path) -> Result<(), WriteError> {
+        write_atomic(path, |w| self.write_rows(w))
+    }
+
+    /// The header and one row per node.
+    fn write_rows(&self, w: &mut impl Write) -> std::io::Result<()> {
         writeln!(w, "{}", CSV_COLUMNS.join(","))?;
         for (k, x) in self.x.iter().enumerate() {
             let u = self.control_at(k);
@@ -71,6 +77,6 @@ impl Trajectory {
             )?;
             writeln!(w, ",{:.6},{:.6}", self.e_min[k], self.e_max[k])?;
         }
-        w.flush()
+        Ok(())
     }
 }

@@ -134,10 +134,13 @@ fn plot_rejects_bad_input() {
     let dir = std::env::temp_dir()
         .join("planner_plot_no_such_dir")
         .join("x");
-    assert!(matches!(
-        plot_trajectory(&traj, &dir.join("a.png")),
-        Err(PlotError::Draw(_))
-    ));
+    // A file that cannot be written is an error naming it, with the OS reason.
+    let e = plot_trajectory(&traj, &dir.join("a.png")).unwrap_err();
+    assert!(matches!(e, PlotError::Write(_)), "{e}");
+    assert!(
+        e.to_string().contains("a.png: cannot write: No such file"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use planner::plot::Canvas;
 use plotters::prelude::*;
 
 use crate::run::RunReport;
@@ -17,19 +18,25 @@ pub struct PlotError {
     pub what: String,
 }
 
-/// Draws `report` to a PNG at `path`.
+/// Draws `report` to a PNG at `path`, atomically ([`planner::plot::save_png`]): the file
+/// holds the complete figure or is left as it was.
 pub fn plot_latency(report: &RunReport, path: &Path) -> Result<(), PlotError> {
     let err = |what: String| PlotError {
         path: path.display().to_string(),
         what,
     };
     planner::plot::ensure_font().map_err(|e| err(e.to_string()))?;
-    draw(report, path).map_err(err)
+    planner::plot::save_png(path, (1200, 900), |root| {
+        draw(report, root).map_err(planner::plot::PlotError::Draw)
+    })
+    .map_err(|e| match e {
+        planner::plot::PlotError::Write(w) => err(format!("cannot write: {}", w.source)),
+        e => err(e.to_string()),
+    })
 }
 
-fn draw(report: &RunReport, path: &Path) -> Result<(), String> {
+fn draw(report: &RunReport, root: &Canvas<'_>) -> Result<(), String> {
     let e = |x: &dyn std::fmt::Display| x.to_string();
-    let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let (top, bottom) = root.split_vertically(480);
     let lat: Vec<f64> = report.per_plan.iter().map(|p| p.latency_ms).collect();
@@ -135,6 +142,5 @@ fn draw(report: &RunReport, path: &Path) -> Result<(), String> {
         Rectangle::new([(x0, 0), (x0 + w, *c)], BLUE.mix(0.6).filled())
     }))
     .map_err(|x| e(&x))?;
-    root.present().map_err(|x| e(&x))?;
     Ok(())
 }

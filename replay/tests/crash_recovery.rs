@@ -136,17 +136,19 @@ fn damage_before_the_cut_or_in_the_cut_record_stays_an_error() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// `replay record-oval` killed with SIGKILL once it has written a few plans: every plan
-/// it had written is in the file and replays bit-identically; `info`, `run` and
-/// `recover` all read it, with a warning and a `recovered` JSON field.
+/// `replay record-oval` killed with SIGKILL once it has written a few plans: the file,
+/// under its partial name (nothing under the final name), holds every plan it had written,
+/// which replays bit-identically; `info`, `run` and `recover` all read it, with a warning
+/// and a `recovered` JSON field.
 #[test]
-fn a_recorder_killed_mid_recording_leaves_a_file_that_replays() {
+fn a_recorder_killed_mid_recording_leaves_a_partial_file_that_replays() {
     let d = common::temp_dir("killed");
-    let f = d.join("killed.mcap");
+    let out = d.join("killed.mcap");
+    let f = plan_record::partial_path(&out);
     let config = common::repo().join("config");
     let mut child = Command::new(env!("CARGO_BIN_EXE_replay"))
         .args(["record-oval", "--plans", "90", "--out"])
-        .arg(&f)
+        .arg(&out)
         .arg("--scenario")
         .arg(config.join("scenarios/oval.toml"))
         .arg("--vehicle")
@@ -172,6 +174,10 @@ fn a_recorder_killed_mid_recording_leaves_a_file_that_replays() {
     };
     child.kill().unwrap();
     child.wait().unwrap();
+    assert!(
+        !out.exists(),
+        "a killed recording has no file under the final name"
+    );
 
     let rec = Recording::read(&f).unwrap();
     let recovery = rec
@@ -238,15 +244,18 @@ fn a_recorder_killed_mid_recording_leaves_a_file_that_replays() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// The schemas reach the file when the recorder starts, and an input whose output never
-/// comes is on disk once its chunk has been open for the chunk period.
+/// The schemas reach the (partial) file when the recorder starts, an input whose output
+/// never comes is on disk once its chunk has been open for the chunk period, and a clean
+/// finish renames the file to its final name.
 #[test]
 fn an_open_chunk_reaches_the_file_within_the_chunk_period() {
     use plan_record::{Record, Recorder, CHUNK_PERIOD};
     let d = common::temp_dir("period");
-    let f = d.join("period.mcap");
+    let done_path = d.join("period.mcap");
+    let f = plan_record::partial_path(&done_path);
     let input = Recording::from_bytes(common::valid_bytes()).unwrap().inputs[0].clone();
-    let r = Recorder::create(&f, 4).unwrap();
+    let r = Recorder::create(&done_path, 4).unwrap();
+    assert!(!done_path.exists());
     let started = Recording::read(&f).unwrap();
     assert_eq!((started.channels.len(), started.inputs.len()), (2, 0));
     assert!(!started.complete());
@@ -256,7 +265,8 @@ fn an_open_chunk_reaches_the_file_within_the_chunk_period() {
     assert_eq!(open.inputs, std::slice::from_ref(&input));
     let stats = r.finish().unwrap();
     assert_eq!((stats.inputs, stats.outputs, stats.dropped), (1, 0, 0));
-    let done = Recording::read(&f).unwrap();
+    assert!(!f.exists(), "the partial file is renamed on finish");
+    let done = Recording::read(&done_path).unwrap();
     assert!(done.complete());
     assert_eq!(done.inputs, [input]);
     let _ = std::fs::remove_dir_all(&d);

@@ -10,62 +10,62 @@ use super::segments::SegmentsStudy;
 use super::StudyError;
 use crate::config::data_root_of;
 use crate::model::ix;
-use crate::plot::{centerline_xy, draw_err, ensure_font, FONT};
+use crate::plot::{centerline_xy, draw_err, ensure_font, save_png, FONT};
 use crate::track::Profile;
 
 /// Convergence figure: two panels (equilibrium guess, zero guess), one log-scale curve of
 /// the optimality error per segment.
 pub fn plot_convergence(study: &SegmentsStudy, path: &Path) -> Result<(), StudyError> {
     ensure_font()?;
-    let root = BitMapBackend::new(path, (1400, 600)).into_drawing_area();
-    root.fill(&WHITE).map_err(draw_err)?;
-    let panels = root.split_evenly((1, 2));
-    for (area, guess) in panels.iter().zip(["equilibrium", "zero"]) {
-        let runs: Vec<_> = study.runs.iter().filter(|r| r.guess == guess).collect();
-        let max_it = runs
-            .iter()
-            .map(|r| r.history.len())
-            .max()
-            .unwrap_or(1)
-            .max(2);
-        let mut chart = ChartBuilder::on(area)
-            .caption(format!("optimality error, {guess} guess"), (FONT, 22))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0f64..max_it as f64, (1e-10f64..1e5f64).log_scale())
-            .map_err(draw_err)?;
-        chart
-            .configure_mesh()
-            .x_desc("iteration")
-            .y_desc("max(inf_pr, inf_du, compl)")
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(draw_err)?;
-        for (i, r) in runs.iter().enumerate() {
-            let color = Palette99::pick(i).to_rgba();
-            let pts: Vec<(f64, f64)> = r
-                .history
+    save_png(path, (1400, 600), |root| {
+        root.fill(&WHITE).map_err(draw_err)?;
+        let panels = root.split_evenly((1, 2));
+        for (area, guess) in panels.iter().zip(["equilibrium", "zero"]) {
+            let runs: Vec<_> = study.runs.iter().filter(|r| r.guess == guess).collect();
+            let max_it = runs
                 .iter()
-                .enumerate()
-                .map(|(k, &e)| (k as f64, e.clamp(1e-10, 1e5)))
-                .collect();
+                .map(|r| r.history.len())
+                .max()
+                .unwrap_or(1)
+                .max(2);
+            let mut chart = ChartBuilder::on(area)
+                .caption(format!("optimality error, {guess} guess"), (FONT, 22))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(0f64..max_it as f64, (1e-10f64..1e5f64).log_scale())
+                .map_err(draw_err)?;
             chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                .map_err(draw_err)?
-                .label(format!("{} ({})", r.segment, r.status))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color));
+                .configure_mesh()
+                .x_desc("iteration")
+                .y_desc("max(inf_pr, inf_du, compl)")
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .draw()
+                .map_err(draw_err)?;
+            for (i, r) in runs.iter().enumerate() {
+                let color = Palette99::pick(i).to_rgba();
+                let pts: Vec<(f64, f64)> = r
+                    .history
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &e)| (k as f64, e.clamp(1e-10, 1e5)))
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                    .map_err(draw_err)?
+                    .label(format!("{} ({})", r.segment, r.status))
+                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()
+                .map_err(draw_err)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(draw_err)?;
-    }
-    root.present().map_err(draw_err)?;
-    Ok(())
+        Ok(())
+    })
 }
 
 /// The parts of a segments file the path figure needs (other keys are ignored here; the
@@ -161,53 +161,53 @@ pub fn plot_paths(scenario: &Path, study: &SegmentsStudy, path: &Path) -> Result
     // Equal aspect: pad the shorter span.
     let span = (x1 - x0).max(y1 - y0).max(1.0) * 1.05;
     let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let root = BitMapBackend::new(path, (1100, 1100)).into_drawing_area();
-    root.fill(&WHITE).map_err(draw_err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("{}: segment paths (equilibrium guess)", track.name),
-            (FONT, 24),
-        )
-        .margin(16)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(
-            (cx - 0.5 * span)..(cx + 0.5 * span),
-            (cy - 0.5 * span)..(cy + 0.5 * span),
-        )
-        .map_err(draw_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("x [m]")
-        .y_desc("y [m]")
-        .draw()
-        .map_err(draw_err)?;
-    chart
-        .draw_series(LineSeries::new(
-            lap,
-            RGBColor(180, 180, 180).stroke_width(8),
-        ))
-        .map_err(draw_err)?;
-    for (i, (name, pts)) in paths.into_iter().enumerate() {
-        let color = Palette99::pick(i).to_rgba();
-        let first = pts.first().copied();
+    save_png(path, (1100, 1100), |root| {
+        root.fill(&WHITE).map_err(draw_err)?;
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!("{}: segment paths (equilibrium guess)", track.name),
+                (FONT, 24),
+            )
+            .margin(16)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(
+                (cx - 0.5 * span)..(cx + 0.5 * span),
+                (cy - 0.5 * span)..(cy + 0.5 * span),
+            )
+            .map_err(draw_err)?;
         chart
-            .draw_series(LineSeries::new(pts, color.stroke_width(3)))
-            .map_err(draw_err)?
-            .label(name.clone())
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color));
-        if let Some(p) = first {
+            .configure_mesh()
+            .x_desc("x [m]")
+            .y_desc("y [m]")
+            .draw()
+            .map_err(draw_err)?;
+        chart
+            .draw_series(LineSeries::new(
+                lap,
+                RGBColor(180, 180, 180).stroke_width(8),
+            ))
+            .map_err(draw_err)?;
+        for (i, (name, pts)) in paths.into_iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            let first = pts.first().copied();
             chart
-                .draw_series(std::iter::once(Text::new(name, p, (FONT, 16))))
-                .map_err(draw_err)?;
+                .draw_series(LineSeries::new(pts, color.stroke_width(3)))
+                .map_err(draw_err)?
+                .label(name.clone())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color));
+            if let Some(p) = first {
+                chart
+                    .draw_series(std::iter::once(Text::new(name, p, (FONT, 16))))
+                    .map_err(draw_err)?;
+            }
         }
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(draw_err)?;
-    root.present().map_err(draw_err)?;
-    Ok(())
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(draw_err)?;
+        Ok(())
+    })
 }

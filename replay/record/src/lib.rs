@@ -9,7 +9,9 @@
 //!
 //! Crash safety: the file is written one closed chunk at a time (after every plan, or
 //! every [`CHUNK_PERIOD`]), so a writer killed mid-recording loses at most its open chunk,
-//! and the reader recovers every complete chunk of a file cut short ([`Recovery`]).
+//! and the reader recovers every complete chunk of a file cut short ([`Recovery`]). The file
+//! is named [`partial_path`] until it closes cleanly, so a file under the final name is
+//! always complete.
 
 pub mod cdr;
 mod msg;
@@ -25,6 +27,7 @@ pub use msg::{
 };
 pub use reader::{ChannelInfo, ReadError, Recording, Recovery, MAX_FILE_BYTES};
 pub use recorder::{
-    now_ns, write_recording, Record, RecordError, RecordStats, Recorder, METADATA_NAME,
+    now_ns, partial_path, write_recording, Record, RecordError, RecordStats, Recorder,
+    METADATA_NAME,
 };
 pub use writer::{CHUNK_BYTES, CHUNK_PERIOD, SYNC_PERIOD};

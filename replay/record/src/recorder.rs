@@ -47,8 +47,8 @@ pub enum RecordError {
         /// Why.
         source: std::io::Error,
     },
-    /// The MCAP writer failed.
-    #[error("{path}: MCAP write failed: {source}")]
+    /// The MCAP writer failed (an I/O failure shows the operating system's reason).
+    #[error("{path}: MCAP write failed: {}", mcap_reason(source))]
     Mcap {
         /// The file.
         path: PathBuf,
@@ -76,6 +76,25 @@ pub enum RecordError {
         /// Why.
         source: std::io::Error,
     },
+}
+
+/// The reason of an MCAP failure: the operating system's for an I/O error (e.g. "No space
+/// left on device (os error 28)"), else the MCAP error's own.
+fn mcap_reason(e: &mcap::McapError) -> String {
+    match e {
+        mcap::McapError::Io(io) => io.to_string(),
+        e => e.to_string(),
+    }
+}
+
+/// Where a recording to `path` is written until it closes cleanly: `path` with `.partial`
+/// appended, in the same folder. [`Recorder::finish`] renames it to `path`; a recording
+/// whose process died is found under this name, and [`Recording::read`] (and `replay
+/// recover`) reads what it holds.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".partial");
+    PathBuf::from(name)
 }
 
 /// Counts of a finished recording.
@@ -132,8 +151,9 @@ pub fn now_ns() -> u64 {
 }
 
 impl Recorder {
-    /// Creates the file (errors surface here) and starts the writer thread with a queue of
-    /// `capacity` records.
+    /// Creates the file under its [`partial_path`] (errors surface here) and starts the
+    /// writer thread with a queue of `capacity` records; a clean finish renames the file to
+    /// `path`.
     pub fn create(path: &Path, capacity: usize) -> Result<Self, RecordError> {
         Self::start(path, capacity, None)
     }
@@ -165,7 +185,7 @@ impl Recorder {
         if capacity == 0 {
             return Err(RecordError::Capacity);
         }
-        let writer = PlanWriter::create(path)?;
+        let writer = PlanWriter::create(&partial_path(path))?;
         let (tx, rx) = sync_channel(capacity);
         let dropped = Arc::new(AtomicU64::new(0));
         let thread_dropped = Arc::clone(&dropped);
@@ -236,23 +256,34 @@ impl Recorder {
         self.dropped.load(Ordering::Relaxed)
     }
 
-    /// Drains the queue, writes the summary and closes the file.
+    /// Drains the queue, writes the summary, closes the file and renames it from its
+    /// [`partial_path`] to its name. A recording that fails stays under the partial name
+    /// with every chunk it closed (readable like the file of a crashed recorder).
     pub fn finish(mut self) -> Result<RecordStats, RecordError> {
         self.shutdown()
     }
 
     fn shutdown(&mut self) -> Result<RecordStats, RecordError> {
         drop(self.tx.take());
-        match self.thread.take() {
+        let stats = match self.thread.take() {
             Some(t) => t.join().map_err(|_| RecordError::Thread {
                 path: self.path.clone(),
                 what: "writer thread panicked".into(),
-            })?,
-            None => Err(RecordError::Thread {
-                path: self.path.clone(),
-                what: "already finished".into(),
-            }),
-        }
+            })??,
+            None => {
+                return Err(RecordError::Thread {
+                    path: self.path.clone(),
+                    what: "already finished".into(),
+                })
+            }
+        };
+        let partial = partial_path(&self.path);
+        std::fs::rename(&partial, &self.path).map_err(|source| RecordError::Rename {
+            path: self.path.clone(),
+            from: partial,
+            source,
+        })?;
+        Ok(stats)
     }
 }
 

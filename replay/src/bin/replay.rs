@@ -16,6 +16,47 @@ use planner::config::paths::resolve_path;
 use replay::oval::{record_oval, OvalOptions};
 use replay::run::{run, RunOptions};
 
+/// Writes `args` to stdout (the [`out!`] and [`outln!`] macros): a closed pipe (`replay
+/// ... | head`) ends the program quietly with success, like the standard Unix tools; any
+/// other failure (a full disk) is returned as an error, reported with exit code 2.
+fn print(args: std::fmt::Arguments) -> Result<(), String> {
+    match planner::io::write_stdout(args) {
+        Ok(()) => Ok(()),
+        Err(e) if planner::io::is_closed(&e) => std::process::exit(0),
+        Err(e) => Err(format!("standard output: cannot write: {e}")),
+    }
+}
+
+/// `print!` to stdout through [`print`]; returns its error from the enclosing function.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        print(format_args!($($arg)*))?
+    };
+}
+
+/// `eprint!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
+/// panic.
+macro_rules! err {
+    ($($arg:tt)*) => {
+        planner::io::write_stderr(format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
+/// panic.
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        planner::io::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `println!` to stdout through [`print`]; returns its error from the enclosing function.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        print(format_args!("{}\n", format_args!($($arg)*)))?
+    };
+}
+
 #[derive(Parser, Debug)]
 #[command(name = "replay", version, about = "Replay planner recordings (MCAP)")]
 struct Cli {
@@ -88,7 +129,7 @@ fn main() -> ExitCode {
     match dispatch(cli.command) {
         Ok(code) => code,
         Err(msg) => {
-            eprintln!("replay: error: {msg}");
+            errln!("replay: error: {msg}");
             ExitCode::from(2)
         }
     }
@@ -98,7 +139,7 @@ fn main() -> ExitCode {
 fn read(file: &Path) -> Result<Recording, String> {
     let rec = Recording::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
     if let Some(r) = &rec.recovery {
-        eprintln!("replay: warning: {}: {r}", file.display());
+        errln!("replay: warning: {}: {r}", file.display());
     }
     Ok(rec)
 }
@@ -120,7 +161,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 replay::plot::plot_latency(&report, png).map_err(|e| e.to_string())?;
             }
             if json {
-                eprint!("{report}");
+                err!("{report}");
                 let differing: Vec<_> = report
                     .per_plan
                     .iter()
@@ -135,15 +176,15 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 v["file"] = file.display().to_string().into();
                 v["plot"] = plot.map(|p| p.display().to_string()).into();
                 v["recorder_dropped"] = rec.dropped().into();
-                println!("{v}");
+                outln!("{v}");
                 return Ok(exit(deterministic || report.different == 0));
             }
-            print!("{report}");
+            out!("{report}");
             if let Some(d) = rec.dropped().filter(|d| *d > 0) {
-                println!("recorder dropped {d} records while recording");
+                outln!("recorder dropped {d} records while recording");
             }
             if let Some(png) = &plot {
-                println!("wrote {}", png.display());
+                outln!("wrote {}", png.display());
             }
             Ok(exit(report.different == 0))
         }
@@ -153,16 +194,16 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             if json {
                 let mut v = serde_json::to_value(&info).map_err(|e| e.to_string())?;
                 v["file"] = file.display().to_string().into();
-                println!("{v}");
+                outln!("{v}");
             } else {
-                print!("{}: {info}", file.display());
+                out!("{}: {info}", file.display());
             }
             Ok(ExitCode::SUCCESS)
         }
         Command::Recover { input, output } => {
             let rec = read(&input)?;
             let stats = plan_record::write_recording(&rec, &output).map_err(|e| e.to_string())?;
-            println!(
+            outln!(
                 "wrote {} inputs and {} outputs from {} to {}",
                 stats.inputs,
                 stats.outputs,
@@ -192,11 +233,11 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 out: out.clone(),
             };
             let summary = record_oval(&opts, |i, ms, status| {
-                eprintln!("plan {i:3}: {status} in {ms:.1} ms");
+                errln!("plan {i:3}: {status} in {ms:.1} ms");
             })
             .map_err(|e| e.to_string())?;
             let ok = summary.statuses.iter().filter(|s| **s == "optimal").count();
-            println!(
+            outln!(
                 "recorded {} inputs and {} outputs to {} ({} dropped); {ok} of {plans} optimal",
                 summary.stats.inputs,
                 summary.stats.outputs,

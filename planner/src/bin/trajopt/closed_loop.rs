@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::out::{errln, outln};
 use crate::paths::resolve;
 
 #[allow(rustdoc::broken_intra_doc_links)] // clap prints these docs as --help: unit brackets stay unescaped
@@ -192,10 +193,10 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
     let obj = summary_json(&args, &prefix, t, p);
     let summary = summary_text(&obj);
     if args.json {
-        eprintln!("{summary}");
-        println!("{obj}");
+        errln!("{summary}");
+        outln!("{obj}");
     } else {
-        println!("{summary}");
+        outln!("{summary}");
     }
     Ok(())
 }

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use planner::config::load_vehicle;
 
+use crate::out::outln;
 use crate::paths::resolve;
 
 #[derive(clap::Args, Debug)]
@@ -34,19 +35,21 @@ pub fn run(args: GuessArgs) -> Result<(), String> {
     let eq = planner::guess::equilibrium(&vehicle, args.v_min, args.v_max, args.v_start)
         .map_err(|e| e.to_string())?;
     if args.json {
-        println!("{}", serde_json::json!(eq));
+        outln!("{}", serde_json::json!(eq));
     } else {
         let n = planner::model::STATE_NAMES;
         let c = planner::model::CONTROL_NAMES;
-        println!(
+        outln!(
             "equilibrium guess ({}, {} iterations, cost {:.2e}):",
-            eq.status, eq.iterations, eq.cost
+            eq.status,
+            eq.iterations,
+            eq.cost
         );
         for (name, v) in n.iter().zip(&eq.x).take(5) {
-            println!("  {name:>6} = {v:.6}");
+            outln!("  {name:>6} = {v:.6}");
         }
         for (name, v) in c.iter().zip(&eq.u) {
-            println!("  {name:>6} = {v:.6}");
+            outln!("  {name:>6} = {v:.6}");
         }
     }
     Ok(())

@@ -13,12 +13,14 @@
 mod args;
 mod closed_loop;
 mod guess;
+mod out;
 mod paths;
 mod solve;
 mod study;
 
 use std::process::ExitCode;
 
+use crate::out::errln;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
@@ -64,7 +66,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(msg) => {
-            eprintln!("trajopt: error: {msg}");
+            errln!("trajopt: error: {msg}");
             ExitCode::from(2)
         }
     }

@@ -15,6 +15,7 @@ use planner::trajectory::Trajectory;
 use planner::HORIZON;
 
 use crate::args::{slew_weight_arg, BarrierArg, GuessArg, KktArg, OnOff};
+use crate::out::{errln, outln};
 use crate::paths::{resolve, solver_file};
 
 #[derive(clap::Args, Debug)]
@@ -149,8 +150,7 @@ pub fn run(args: SolveArgs) -> Result<(), String> {
         files: files.iter().map(|f| f.display().to_string()).collect(),
         recording,
     };
-    report.print(&planner);
-    Ok(())
+    report.print(&planner)
 }
 
 /// Loads the vehicle, scenario and solver files and applies the command-line overrides;
@@ -250,7 +250,7 @@ fn finish_recording(
     };
     let stats = rec.finish().map_err(|e| e.to_string())?;
     if stats.dropped > 0 {
-        eprintln!(
+        errln!(
             "trajopt: warning: recorder dropped {} records",
             stats.dropped
         );
@@ -265,11 +265,11 @@ fn finish_recording(
 
 /// Prints the solver's iteration log of the last solve to stderr.
 fn print_log(planner: &Planner<HORIZON>) {
-    eprintln!(
+    errln!(
         "iter  objective      inf_pr    inf_du    compl     mu        alpha     delta_w  nf bt step"
     );
     for l in planner.solver().log() {
-        eprintln!(
+        errln!(
             "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
             l.iter,
             l.objective,
@@ -307,31 +307,23 @@ fn worst_rows(planner: &mut Planner<HORIZON>, count: usize) -> Vec<(String, f64)
         .collect()
 }
 
-/// Writes `<name>.csv`, `<name>.png` and `<name>_footprint.png` to `out_dir`; returns the
-/// files written (a figure that cannot be drawn is a warning, not an error).
+/// Writes `<name>.csv`, `<name>.png` and `<name>_footprint.png` to `out_dir`, each
+/// atomically (complete or not at all); returns the files written. A file that cannot be
+/// written is an error naming it.
 fn write_outputs(
     out_dir: &std::path::Path,
     name: &str,
     traj: &Trajectory,
 ) -> Result<Vec<PathBuf>, String> {
-    let mut files = Vec::new();
     std::fs::create_dir_all(out_dir)
         .map_err(|e| format!("{}: cannot create: {e}", out_dir.display()))?;
     let csv = out_dir.join(format!("{name}.csv"));
-    traj.write_csv(&csv)
-        .map_err(|e| format!("{}: cannot write: {e}", csv.display()))?;
-    files.push(csv);
+    traj.write_csv(&csv).map_err(|e| e.to_string())?;
     let png = out_dir.join(format!("{name}.png"));
-    match planner::plot::plot_trajectory(traj, &png) {
-        Ok(()) => files.push(png),
-        Err(e) => eprintln!("trajopt: warning: figure not written: {e}"),
-    }
+    planner::plot::plot_trajectory(traj, &png).map_err(|e| format!("figure: {e}"))?;
     let foot = out_dir.join(format!("{name}_footprint.png"));
-    match planner::plot::plot_footprint(traj, &foot) {
-        Ok(()) => files.push(foot),
-        Err(e) => eprintln!("trajopt: warning: footprint figure not written: {e}"),
-    }
-    Ok(files)
+    planner::plot::plot_footprint(traj, &foot).map_err(|e| format!("footprint figure: {e}"))?;
+    Ok(vec![csv, png, foot])
 }
 
 /// Everything the report of a solve shows.
@@ -360,26 +352,27 @@ struct Report<'a> {
 impl Report<'_> {
     /// Prints the summary (to stderr with `--json`, followed by the JSON object on stdout;
     /// else to stdout with the worst rows of a failed solve, the files and the recording).
-    fn print(&self, planner: &Planner<HORIZON>) {
+    fn print(&self, planner: &Planner<HORIZON>) -> Result<(), String> {
         let summary = self.summary(planner);
         if self.args.json {
-            eprintln!("{summary}");
-            println!("{}", self.json(planner));
-            return;
+            errln!("{summary}");
+            outln!("{}", self.json(planner));
+            return Ok(());
         }
-        println!("{summary}");
+        outln!("{summary}");
         if !self.info.status.is_success() {
-            println!("  largest violations (scaled NLP units):");
+            outln!("  largest violations (scaled NLP units):");
             for (row, v) in &self.worst {
-                println!("    {v:.3e}  {row}");
+                outln!("    {v:.3e}  {row}");
             }
         }
         for f in &self.files {
-            println!("  wrote {f}");
+            outln!("  wrote {f}");
         }
         if let Some(path) = &self.args.record {
-            println!("  recorded {} ({})", path.display(), self.recording);
+            outln!("  recorded {} ({})", path.display(), self.recording);
         }
+        Ok(())
     }
 
     /// The three-line human summary.

@@ -6,6 +6,7 @@ use planner::config::{load_solver, load_vehicle};
 use planner::study::barrier;
 
 use crate::args::StudyCommon;
+use crate::out::{err, out, outln};
 use crate::paths::{resolve, solver_file};
 
 #[derive(clap::Args, Debug)]
@@ -43,7 +44,7 @@ pub fn run(args: StudyBarrierArgs) -> Result<(), String> {
         c.objective.slew(),
     );
     if c.json {
-        eprint!("{table}");
+        err!("{table}");
         let v = serde_json::json!({
             "scenario": args.scenario.display().to_string(),
             "repeat": c.repeat,
@@ -51,9 +52,9 @@ pub fn run(args: StudyBarrierArgs) -> Result<(), String> {
             "steering_slew_weight": c.objective.slew(),
             "runs": runs,
         });
-        println!("{v}");
+        outln!("{v}");
     } else {
-        print!("{table}");
+        out!("{table}");
     }
     Ok(())
 }

@@ -5,6 +5,7 @@ use planner::HORIZON;
 
 use super::{figure_written, study_inputs};
 use crate::args::StudyFiles;
+use crate::out::{err, errln, out, outln};
 
 #[allow(rustdoc::broken_intra_doc_links)] // clap prints these docs as --help: unit brackets stay unescaped
 #[derive(clap::Args, Debug)]
@@ -58,7 +59,7 @@ pub fn run(a: IntegratorsArgs) -> Result<(), String> {
         reference,
     };
     let study = run_study::<HORIZON>(&spec, &settings, &config, |r| {
-        eprintln!(
+        errln!(
             "  {}: {} in {} iterations, median {:.1} ms",
             r.integrator.name(),
             r.status,
@@ -74,23 +75,21 @@ pub fn run(a: IntegratorsArgs) -> Result<(), String> {
     let figure = figure_written(
         planner::study::figures::plot_integrator_study(&study, &png),
         &png,
-    );
+    )?;
     let table = format!(
         "{}{}\n",
         study.table(),
         planner::ocp::objective::label(spec.steering_slew_weight)
     );
     if a.files.json {
-        eprint!("{table}");
+        err!("{table}");
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["figure"] = serde_json::json!(figure);
         v["steering_slew_weight"] = serde_json::json!(spec.steering_slew_weight);
-        println!("{v}");
+        outln!("{v}");
     } else {
-        print!("{table}");
-        if let Some(f) = figure {
-            println!("  wrote {f}");
-        }
+        out!("{table}");
+        outln!("  wrote {figure}");
     }
     Ok(())
 }

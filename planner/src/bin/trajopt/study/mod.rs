@@ -58,17 +58,14 @@ fn study_inputs(f: &StudyFiles) -> Result<(OcpSpec, Settings), String> {
     Ok((spec, settings))
 }
 
-/// Path of a figure that was written, or `None` after a warning on stderr for one that
-/// could not be drawn (a missing figure does not fail the study).
+/// Path of a figure that was written, or the error naming the figure that could not be
+/// drawn or written (a study's figure is one of its outputs: its failure fails the study).
 fn figure_written<E: std::fmt::Display>(
     drawn: Result<(), E>,
     png: &std::path::Path,
-) -> Option<String> {
+) -> Result<String, String> {
     match drawn {
-        Ok(()) => Some(png.display().to_string()),
-        Err(e) => {
-            eprintln!("trajopt: warning: figure not written: {e}");
-            None
-        }
+        Ok(()) => Ok(png.display().to_string()),
+        Err(e) => Err(format!("figure {}: {e}", png.display())),
     }
 }

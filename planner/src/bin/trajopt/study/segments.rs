@@ -7,6 +7,7 @@ use planner::config::{load_solver, load_vehicle};
 use planner::study::{segment_figures, segments};
 
 use crate::args::{BarrierArg, StudyCommon};
+use crate::out::{err, out, outln};
 use crate::paths::{resolve, solver_file};
 
 #[derive(clap::Args, Debug)]
@@ -57,14 +58,14 @@ pub fn run(args: StudySegmentsArgs) -> Result<(), String> {
         figures_out.push(paths.display().to_string());
     }
     if c.json {
-        eprint!("{tables}");
+        err!("{tables}");
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["figures"] = serde_json::json!(figures_out);
-        println!("{v}");
+        outln!("{v}");
     } else {
-        print!("{tables}");
+        out!("{tables}");
         for f in &figures_out {
-            println!("wrote {f}");
+            outln!("wrote {f}");
         }
     }
     Ok(())

@@ -10,6 +10,7 @@ use planner::HORIZON;
 
 use super::{figure_written, study_inputs};
 use crate::args::StudyFiles;
+use crate::out::{errln, outln};
 
 #[derive(clap::Args, Debug)]
 pub struct StiffnessArgs {
@@ -41,23 +42,21 @@ pub fn run(a: StiffnessArgs) -> Result<(), String> {
     let figure = figure_written(
         planner::study::figures::plot_stiffness(&study, &title, &png),
         &png,
-    );
+    )?;
     let t_final = planner.states()[HORIZON][planner::model::ix::T];
     let summary = summary(&study, &spec, &info, t_final);
     if a.files.json {
-        eprintln!("{summary}");
+        errln!("{summary}");
         let mut v = serde_json::to_value(&study).map_err(|e| e.to_string())?;
         v["scenario"] = serde_json::json!(spec.name);
         v["steering_slew_weight"] = serde_json::json!(spec.steering_slew_weight);
         v["status"] = serde_json::json!(info.status.name());
         v["iterations"] = serde_json::json!(info.iterations);
         v["figure"] = serde_json::json!(figure);
-        println!("{v}");
+        outln!("{v}");
     } else {
-        println!("{summary}");
-        if let Some(f) = figure {
-            println!("  wrote {f}");
-        }
+        outln!("{summary}");
+        outln!("  wrote {figure}");
     }
     Ok(())
 }

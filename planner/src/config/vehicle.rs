@@ -137,6 +137,6 @@ pub fn load_vehicle(path: &Path) -> Result<VehicleParams, ConfigError> {
     p.check()
         .map_err(|e| f.invalid(e.field, e.value, e.expected))?;
     p.check_ranges()
-        .map_err(|e| f.invalid(e.field, e.value, e.expected))?;
+        .map_err(|e| f.invalid(e.field, format!("{:?}", e.value), e.expected))?;
     Ok(p)
 }

@@ -168,8 +168,8 @@ pub fn check_road(kappa: &[f64], e_min: &[f64], e_max: &[f64], n: usize) -> Resu
             return Err(bad(
                 format!("{name}[{k}]"),
                 format!(
-                    "{e} is at or beyond the curvature centre of kappa[{k}] = {} \
-                     (1 - kappa e = {room}; the spatial dynamics need it positive)",
+                    "{e} is at or beyond the curvature centre of kappa[{k}] = {:?} \
+                     (1 - kappa e = {room:?}; the spatial dynamics need it positive)",
                     kappa[k]
                 ),
             ));

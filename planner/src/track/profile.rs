@@ -112,8 +112,8 @@ impl Profile {
                     path,
                     r.line,
                     format!(
-                        "kappa_1pm = {k}: the track edge {name} = {w} lies at or beyond the \
-                         curvature centre (1 - kappa e = {room}); |kappa| must stay below 1 / {name}"
+                        "kappa_1pm = {k:?}: the track edge {name} = {w} lies at or beyond the \
+                         curvature centre (1 - kappa e = {room:?}); |kappa| must stay below 1 / {name}"
                     ),
                 ));
             }

@@ -137,9 +137,9 @@ pub(super) fn curvature(
         None => Ok(()),
         Some((bound, room)) => Err(f.invalid(
             field,
-            kappa,
+            format!("{kappa:?}"),
             format!(
-                "puts the lane's {bound} at or beyond the curvature centre (1 - kappa e = {room}); \
+                "puts the lane's {bound} at or beyond the curvature centre (1 - kappa e = {room:?}); \
                  |kappa| must stay below 1 / |e| for e_min = {e_min}, e_max = {e_max}"
             ),
         )),
@@ -169,9 +169,9 @@ fn check_road(f: Fields<'_>, name: &str, road: &Road) -> Result<(), ConfigError>
         if let Some((bound, room)) = beyond_curvature_centre(kap, lo, hi) {
             return Err(f.invalid(
                 &field,
-                format!("kappa {kap}, e_min {lo}, e_max {hi}"),
+                format!("kappa {kap:?}, e_min {lo}, e_max {hi}"),
                 format!(
-                    "{bound} is at or beyond the curvature centre (1 - kappa e = {room}); \
+                    "{bound} is at or beyond the curvature centre (1 - kappa e = {room:?}); \
                      the lane must stay short of 1/kappa"
                 ),
             ));

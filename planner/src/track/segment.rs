@@ -110,7 +110,7 @@ pub fn beyond_curvature_centre(kappa: f64, e_min: f64, e_max: f64) -> Option<(&'
     [("e_min", e_min), ("e_max", e_max)]
         .into_iter()
         .map(|(name, e)| (name, 1.0 - kappa * e))
-        .find(|&(_, room)| !(room > 0.0))
+        .find(|&(_, room)| room.is_nan() || room <= 0.0)
 }
 
 /// Right-continuous piecewise-constant function: the value of the last piece

@@ -68,14 +68,35 @@ pub struct Equilibrium {
 #[derive(Debug, thiserror::Error)]
 pub enum GuessError {
     /// The least-squares problem did not converge to zero cost.
-    #[error("equilibrium guess did not converge: status {status}, cost {cost:e}")]
+    #[error(
+        "equilibrium guess (paper eq. 8) did not converge from V = {v_start} m/s \
+         (speed bounds [{v_min}, {v_max}] m/s): {status} after {iterations} iterations, \
+         cost {cost:e}, largest scaled residual {residual} = {residual_value:e}"
+    )]
     NotConverged {
-        /// Solver status.
+        /// What stopped the solve: `non_finite_residuals`, `no_descent` or `iteration_cap`.
         status: &'static str,
         /// Remaining cost.
         cost: f64,
+        /// Start speed of the least-squares problem [m/s].
+        v_start: f64,
+        /// Lower speed bound [m/s].
+        v_min: f64,
+        /// Upper speed bound [m/s].
+        v_max: f64,
+        /// Iterations taken.
+        iterations: usize,
+        /// Name of the largest scaled residual of eq. (8) at the last iterate.
+        residual: &'static str,
+        /// Its value (NaN if not finite).
+        residual_value: f64,
     },
 }
+
+/// Names of the residuals of eq. (8): the five dynamic rates and V - V_wr.
+const RESIDUAL_NAMES: [&str; 6] = [
+    "dr/dt", "dV/dt", "dbeta/dt", "dV_wr/dt", "dFz/dt", "V - V_wr",
+];
 
 /// The NLP of paper eq. (8) for one vehicle.
 #[derive(Debug, Clone)]
@@ -247,6 +268,7 @@ pub fn equilibrium(
     let (mut res, mut jac) = prob.residuals_jacobian(&z);
     let mut cost = 0.5 * res.norm_squared();
     let mut iterations = 0;
+    let mut no_descent = false;
     while iterations < MAX_ITER && cost > 1e-24 {
         iterations += 1;
         // Free variables: not at a bound with the gradient pushing outwards.
@@ -291,15 +313,38 @@ pub fn equilibrium(
         } else {
             lambda *= 10.0;
             if lambda > 1e12 {
+                no_descent = true;
                 break;
             }
         }
     }
     // A NaN cost is not converged either.
     if cost.is_nan() || cost > 1e-16 {
+        let (worst, value) = res
+            .iter()
+            .enumerate()
+            .find(|(_, r)| !r.is_finite())
+            .or_else(|| {
+                res.iter()
+                    .enumerate()
+                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+            })
+            .map_or((0, f64::NAN), |(i, r)| (i, *r));
         return Err(GuessError::NotConverged {
-            status: "not_converged",
+            status: if !cost.is_finite() {
+                "non_finite_residuals"
+            } else if no_descent {
+                "no_descent"
+            } else {
+                "iteration_cap"
+            },
             cost,
+            v_start: prob.start[1],
+            v_min,
+            v_max,
+            iterations,
+            residual: RESIDUAL_NAMES[worst],
+            residual_value: value,
         });
     }
     let zp: [f64; NG] = std::array::from_fn(|i| z[i] * Z_NOMINAL[i]);
@@ -343,8 +388,47 @@ pub fn fill_equilibrium(
     }
 }
 
-/// Fills every node with zeros (the paper's ill-informed guess).
-pub fn fill_zero(xs: &mut [[f64; NX]], us: &mut [[f64; NU]]) {
+/// Fills every node with zeros (the paper's ill-informed guess). With a fixed initial
+/// state, node 0 takes it: the initial-condition rows hold x_0 there and its speed is not
+/// bounded below, so a zero V_0 would put 0/0 into the node-0 saturation rows (the slips
+/// divide by V). The other nodes' zero speeds are pushed up to v_min by the solver.
+pub fn fill_zero(fixed_x0: Option<&[f64; NX]>, xs: &mut [[f64; NX]], us: &mut [[f64; NU]]) {
     xs.iter_mut().for_each(|x| *x = [0.0; NX]);
     us.iter_mut().for_each(|u| *u = [0.0; NU]);
+    if let (Some(x0), Some(first)) = (fixed_x0, xs.first_mut()) {
+        *first = *x0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::params::lc500;
+
+    #[test]
+    fn an_extreme_mass_names_the_speed_and_what_failed() {
+        for m in [1e300, 1e-6] {
+            let p = VehicleParams { m, ..lc500() };
+            let msg = equilibrium(&p, 5.0, 40.0, 15.0)
+                .expect_err("must not converge")
+                .to_string();
+            assert!(msg.contains("from V = 15 m/s"), "{msg}");
+            assert!(msg.contains("speed bounds [5, 40] m/s"), "{msg}");
+            assert!(msg.contains("largest scaled residual"), "{msg}");
+        }
+    }
+
+    #[test]
+    fn the_zero_guess_takes_a_fixed_initial_state_at_node_0() {
+        let mut x0 = [0.0; NX];
+        x0[ix::V] = 25.0;
+        x0[ix::VWR] = 25.0;
+        let mut xs = [[1.0; NX]; 3];
+        let mut us = [[1.0; NU]; 2];
+        fill_zero(Some(&x0), &mut xs, &mut us);
+        assert_eq!(xs, [x0, [0.0; NX], [0.0; NX]]);
+        assert_eq!(us, [[0.0; NU]; 2]);
+        fill_zero(None, &mut xs, &mut us);
+        assert_eq!(xs, [[0.0; NX]; 3]);
+    }
 }

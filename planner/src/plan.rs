@@ -125,7 +125,7 @@ impl<const N: usize> Planner<N> {
                 &mut self.xs,
                 &mut self.us,
             ),
-            GuessKind::Zero => guess::fill_zero(&mut self.xs, &mut self.us),
+            GuessKind::Zero => guess::fill_zero(fixed.as_ref(), &mut self.xs, &mut self.us),
         }
         self.nlp.set_initial_guess(&self.xs, &self.us);
     }
@@ -233,5 +233,35 @@ impl<const N: usize> Planner<N> {
             e_min: spec.e_min.clone(),
             e_max: spec.e_max.clone(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{load_scenario, load_vehicle};
+    use crate::ip::Status;
+    use std::path::PathBuf;
+
+    #[test]
+    fn the_zero_guess_on_a_fixed_start_with_saturation_gives_the_solver_a_finite_start() {
+        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../config");
+        let vehicle = load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
+        let mut spec = load_scenario(
+            &root.join("scenarios/collision_avoidance.toml"),
+            Some("critical"),
+            vehicle,
+        )
+        .unwrap();
+        spec.enforce_tire_saturation = true;
+        let settings = Settings {
+            max_iter: 5,
+            ..Settings::default()
+        };
+        let mut planner = Planner::<{ crate::HORIZON }>::new(spec, settings).unwrap();
+        let info = planner.solve(GuessKind::Zero);
+        assert_ne!(info.status, Status::InvalidInput, "{info:?}");
+        assert!(info.iterations > 0, "{info:?}");
+        assert!(info.start_violation.is_finite(), "{info:?}");
     }
 }

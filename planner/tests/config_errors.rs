@@ -1,6 +1,6 @@
 //! Broken configuration files give errors that name the file and the field or line.
 
-use planner::config::{load_scenario, load_vehicle, ConfigError};
+use planner::config::{load_scenario, load_scenario_for_horizon, load_vehicle, ConfigError};
 use planner::model::VehicleParams;
 use planner::track::Profile;
 use std::path::{Path, PathBuf};
@@ -100,6 +100,27 @@ fn vehicle_negative_mass() {
 }
 
 #[test]
+fn vehicle_extreme_values_name_the_key_and_the_accepted_range() {
+    for (m, shown) in [("1e300", "1e300"), ("1e-6", "1e-6")] {
+        let msg = vehicle_error(
+            "extreme-mass",
+            &lc500_with("m = 1970.0", &format!("m = {m}")),
+        );
+        assert!(
+            msg.ends_with(&format!(
+                "vehicles/car.toml: chassis.m = {shown}: must lie within the accepted range [5e1, 1e5] kg"
+            )),
+            "{msg}"
+        );
+    }
+    let msg = vehicle_error("extreme-mu", &lc500_with("mu = 1.0", "mu = 40.0"));
+    assert!(
+        msg.contains("tire.mu = 40.0: must lie within the accepted range [5e-2, 3e0] -"),
+        "{msg}"
+    );
+}
+
+#[test]
 fn vehicle_inconsistent_values() {
     let msg = vehicle_error("ab", &lc500_with("b = 1.492", "b = 1.5"));
     assert!(
@@ -186,6 +207,22 @@ fn profile_non_monotone_s() {
     let text = profile_csv(10).replacen("5.0,0.001", "5.5,0.001", 1);
     let msg = profile_error("step", &text, 10.0);
     assert!(msg.contains(":7: s_m = 5.5: step 1.5 differs"), "{msg}");
+}
+
+#[test]
+fn profile_lane_beyond_the_curvature_centre_names_the_line() {
+    let text = profile_csv(10).replacen("2.0,0.001,5.0,5.0", "2.0,1e308,5.0,5.0", 1);
+    let msg = profile_error("kappa-big", &text, 10.0);
+    assert!(
+        msg.contains("T_profile.csv:4: kappa_1pm = 1e308: the track edge w_left_m = 5 lies at or beyond the curvature centre"),
+        "{msg}"
+    );
+    let text = profile_csv(10).replacen("7.0,0.001,5.0,5.0", "7.0,-0.25,5.0,3.0", 1);
+    let msg = profile_error("kappa-neg", &text, 10.0);
+    assert!(
+        msg.contains("T_profile.csv:9: kappa_1pm = -0.25: the track edge w_right_m = 5 lies"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -410,7 +447,7 @@ fn ca_error(test: &str, from: &str, to: &str, select: Option<&str>) -> String {
 }
 
 #[test]
-fn collision_scenario_errors() {
+fn collision_scenario_road_and_horizon_errors_name_the_key() {
     let msg = ca_error(
         "ca-nan",
         "[12.5, 17.5, 1.0, 3.5]",
@@ -471,6 +508,10 @@ fn collision_scenario_errors() {
     );
     let msg = ca_error("ca-road", "road_e_max_m = 3.5", "road_e_max_m = -3.6", None);
     assert!(msg.contains("critical at node 0 (s = 0) = e_min -3.5, e_max -3.6: lateral bounds must satisfy e_min < e_max"), "{msg}");
+}
+
+#[test]
+fn collision_scenario_initial_state_errors_name_the_entry() {
     let msg = ca_error("ca-mode", "mode = \"fixed\"", "mode = \"frozen\"", None);
     assert!(
         msg.contains("common.initial_state.mode = \"frozen\": must be one of \"free\", \"fixed\""),
@@ -522,6 +563,10 @@ fn collision_scenario_errors() {
         let msg = ca_error(test, from, to, None);
         assert!(msg.contains(want), "{msg}");
     }
+}
+
+#[test]
+fn collision_scenario_selection_objective_and_curvature_errors_name_the_key() {
     let msg = ca_error("ca-select", "", "", Some("forgiving"));
     assert!(
         msg.ends_with("no scenario named \"forgiving\"; available: critical"),
@@ -537,6 +582,59 @@ fn collision_scenario_errors() {
         msg.contains("objective = \"max_fun\": must be one of \"min_time\""),
         "{msg}"
     );
+    // A road whose lane reaches the curvature centre (1 - kappa e <= 0): refused at load.
+    for (kappa, bound) in [("1e308", "e_max"), ("-0.5", "e_min")] {
+        let to = format!("kappa_1pm = {kappa}");
+        let msg = ca_error("ca-kappa", "kappa_1pm = 0.0", &to, None);
+        assert!(
+            msg.contains(&format!(
+                "common.kappa_1pm = {kappa}: puts the lane's {bound} at or beyond the curvature centre"
+            )),
+            "{msg}"
+        );
+    }
+}
+
+/// A scenario loaded for the planner's horizon names the file and the n_intervals key
+/// when its N differs.
+#[test]
+fn a_horizon_other_than_the_planners_names_the_file_and_key() {
+    let root = TempRoot::new("horizon");
+    let text = shipped_text("scenarios/ca_critical.toml")
+        .replacen("n_intervals = 100", "n_intervals = 50", 1)
+        .replacen("ds_m = 1.25", "ds_m = 2.5", 1);
+    let path = root.write("scenarios/ca.toml", &text);
+    assert!(load_scenario(&path, None, vehicle()).is_ok());
+    let err = load_scenario_for_horizon(&path, None, vehicle(), planner::HORIZON).unwrap_err();
+    let msg = message(err, &path);
+    assert!(
+        msg.contains(
+            "common.n_intervals = 50: must be 100, the horizon N the planner is built for"
+        ),
+        "{msg}"
+    );
+    let path = segments_file(&root, "0.0", "");
+    let err = load_scenario_for_horizon(&path, Some("A"), vehicle(), planner::HORIZON).unwrap_err();
+    let msg = message(err, &path);
+    assert!(
+        msg.contains("defaults.n_intervals = 20: must be 100"),
+        "{msg}"
+    );
+    let path = segments_file(&root, "0.0", "n_intervals = 40\nds_m = 1.25\n");
+    let err = load_scenario_for_horizon(&path, Some("B"), vehicle(), planner::HORIZON).unwrap_err();
+    let msg = message(err, &path);
+    assert!(
+        msg.contains("segments[B].n_intervals = 40: must be 100"),
+        "{msg}"
+    );
+    let spec = load_scenario_for_horizon(
+        &shipped("scenarios/ca_critical.toml"),
+        None,
+        vehicle(),
+        planner::HORIZON,
+    )
+    .unwrap();
+    assert_eq!(spec.n_intervals, planner::HORIZON);
 }
 
 #[test]
@@ -555,6 +653,13 @@ fn oval_errors() {
     let msg = message(load_scenario(&path, None, vehicle()).unwrap_err(), &path);
     assert!(
         msg.contains("track.kappa_pieces[2] = [28.5, 0.0]: s_start_m must increase strictly"),
+        "{msg}"
+    );
+    let bad = text.replacen("[50.0, 0.04]", "[50.0, 0.25]", 1);
+    let path = root.write("scenarios/oval.toml", &bad);
+    let msg = message(load_scenario(&path, None, vehicle()).unwrap_err(), &path);
+    assert!(
+        msg.contains("track.kappa_pieces[1] = 0.25: puts the lane's e_max at or beyond the curvature centre (1 - kappa e = 0.0)"),
         "{msg}"
     );
     let bad = text.replacen("lap_length_m = 257.0796327", "lap_length_m = 260.0", 1);

@@ -179,3 +179,38 @@ fn overrides_replace_bounds_on_closed_intervals() {
     // [7.5, 7.9] contains no node: nothing changes.
     assert!(road.e_max.iter().all(|&e| e == 3.0));
 }
+
+#[test]
+fn a_profile_row_whose_lane_reaches_the_curvature_centre_is_refused_with_its_line() {
+    use planner::track::beyond_curvature_centre;
+    assert_eq!(beyond_curvature_centre(0.04, -4.0, 4.0), None);
+    assert_eq!(
+        beyond_curvature_centre(0.25, -4.0, 4.0),
+        Some(("e_max", 0.0))
+    );
+    assert_eq!(
+        beyond_curvature_centre(-0.5, -4.0, 4.0),
+        Some(("e_min", -1.0))
+    );
+    assert!(beyond_curvature_centre(f64::NAN, -4.0, 4.0).is_some());
+    let dir = std::env::temp_dir().join(format!("planner-track-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("curl_profile.csv");
+    let mut text = String::from("s_m,kappa_1pm,w_right_m,w_left_m\n");
+    for i in 0..10 {
+        let kappa = if i == 6 { "1e308" } else { "0.01" };
+        text.push_str(&format!("{i}.0,{kappa},5.0,5.0\n"));
+    }
+    std::fs::write(&path, &text).unwrap();
+    let msg = Profile::load(&path, 10.0).unwrap_err().to_string();
+    assert!(
+        msg.contains("curl_profile.csv:8: kappa_1pm = 1e308: the track edge w_left_m = 5"),
+        "{msg}"
+    );
+    // At the edge's limit, 1/kappa = 5 m: still refused (1 - kappa e = 0).
+    std::fs::write(&path, text.replace("1e308", "0.2")).unwrap();
+    assert!(Profile::load(&path, 10.0).is_err());
+    std::fs::write(&path, text.replace("1e308", "0.19")).unwrap();
+    assert!(Profile::load(&path, 10.0).is_ok());
+    let _ = std::fs::remove_dir_all(&dir);
+}

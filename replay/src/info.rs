@@ -26,6 +26,8 @@ pub struct Info {
     pub scenarios: Vec<String>,
     /// What was recovered of a file that was not closed cleanly (None: closed cleanly).
     pub recovered: Option<Recovered>,
+    /// Seqs of recorded outputs that match no input ([`crate::validate`] fills it).
+    pub orphan_outputs: Vec<u64>,
 }
 
 /// What a read recovered of a file that was not closed cleanly (a killed recorder).
@@ -96,6 +98,7 @@ pub fn info(rec: &Recording) -> Info {
         dropped: rec.dropped(),
         scenarios,
         recovered: rec.recovery.as_ref().map(Recovered::from),
+        orphan_outputs: Vec::new(),
     }
 }
 
@@ -128,6 +131,6 @@ impl std::fmt::Display for Info {
         if !self.scenarios.is_empty() {
             writeln!(f, "  scenarios: {}", self.scenarios.join(", "))?;
         }
-        Ok(())
+        write!(f, "{}", crate::validate::orphan_line(&self.orphan_outputs))
     }
 }

@@ -1,7 +1,8 @@
 //! Replay of planner recordings: re-solve every recorded input with the recorded
 //! configuration on a pinned core, check the outputs are bit-identical, and report latency
 //! and jitter from an HDR histogram ([`run`]); summarise a file ([`info`]); record a 10 Hz
-//! replanning drive along the oval ([`oval`]); draw the latency figure ([`plot`]).
+//! replanning drive along the oval ([`oval`]); draw the latency figure ([`plot`]). Both
+//! `run` and `info` judge a file by the same checks ([`validate`]).
 //!
 //! The recording format and the [`plan_record::Recorder`] live in `plan_record`
 //! (`replay/record`), which does not depend on the planner, so the planner's own `trajopt`
@@ -12,6 +13,7 @@ pub mod oval;
 pub mod plot;
 pub mod run;
 pub mod stats;
+pub mod validate;
 
 /// The horizon every recording is replayed with: the planner's [`planner::HORIZON`].
 pub const N: usize = planner::HORIZON;

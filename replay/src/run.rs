@@ -11,6 +11,7 @@ use serde::Serialize;
 
 use crate::info::Recovered;
 use crate::stats::{latency, Latency, StatsError};
+use crate::validate::{orphan_line, validate};
 use crate::N;
 
 /// How to replay.
@@ -139,7 +140,10 @@ pub struct RunReport {
     pub different: usize,
     /// Inputs without a recorded output.
     pub unverified: usize,
-    /// True when every output was recorded and is bit-identical.
+    /// Seqs of recorded outputs that match no input (nothing replays them).
+    pub orphan_outputs: Vec<u64>,
+    /// True when every output was recorded and is bit-identical, and every recorded
+    /// output belongs to an input.
     pub deterministic: bool,
     /// Replayed latency.
     pub latency: Latency,
@@ -176,23 +180,9 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
         Some(c) => cores.get(c).copied(),
         None => cores.last().copied(),
     };
-    let mut outputs: HashMap<u64, &PlanOutput> = HashMap::with_capacity(rec.outputs.len());
-    for o in &rec.outputs {
-        if outputs.insert(o.seq, o).is_some() {
-            return Err(ReplayError::DuplicateSeq {
-                what: "outputs",
-                seq: o.seq,
-            });
-        }
-    }
-    let mut seqs: Vec<u64> = rec.inputs.iter().map(|i| i.seq).collect();
-    seqs.sort_unstable();
-    if let Some(w) = seqs.windows(2).find(|w| w[0] == w[1]) {
-        return Err(ReplayError::DuplicateSeq {
-            what: "inputs",
-            seq: w[0],
-        });
-    }
+    // Every input is checked before the first solve: a bad file is refused as a whole.
+    let validated = validate(rec)?;
+    let outputs: HashMap<u64, &PlanOutput> = rec.outputs.iter().map(|o| (o.seq, o)).collect();
     let per_plan = std::thread::scope(|s| {
         s.spawn(|| {
             let pinned = core
@@ -206,6 +196,8 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
     let (pinned_core, per_plan) = per_plan;
     let mut report = report(per_plan, pinned_core, opts.budget_ms)?;
     report.recovered = rec.recovery.as_ref().map(Recovered::from);
+    report.deterministic &= validated.orphan_outputs.is_empty();
+    report.orphan_outputs = validated.orphan_outputs;
     Ok(report)
 }
 
@@ -311,6 +303,7 @@ fn report(
         identical,
         different,
         unverified,
+        orphan_outputs: Vec::new(),
         deterministic: different == 0 && unverified == 0,
         latency: latency(&lat)?,
         recorded_latency: if recorded.is_empty() {
@@ -352,6 +345,7 @@ impl std::fmt::Display for RunReport {
                 "NOT VERIFIED"
             }
         )?;
+        write!(f, "{}", orphan_line(&self.orphan_outputs))?;
         writeln!(
             f,
             "latency [ms]: p50 {:.2}  p90 {:.2}  p99 {:.2}  p99.9 {:.2}  max {:.2}  (min {:.2}, mean {:.2})",

@@ -291,3 +291,85 @@ fn mutated_cdr_payloads_give_ok_or_err_never_a_panic() {
     // Flipped doubles decode fine (any bits are valid); truncations never do.
     assert!(err >= 133, "{err}");
 }
+
+/// Writes the valid two-plan recording changed by `change` and runs `replay run` and
+/// `replay info` on it: each must exit with `code` and say `expect` (stdout or stderr).
+fn run_and_info_agree(name: &str, change: impl Fn(&mut Recording), code: i32, expect: &str) {
+    let mut rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    change(&mut rec);
+    let d = common::temp_dir(name);
+    let f = d.join(format!("{name}.mcap"));
+    plan_record::write_recording(&rec, &f).unwrap();
+    for sub in ["run", "info"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_replay"))
+            .arg(sub)
+            .arg(&f)
+            .output()
+            .unwrap();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(out.status.code(), Some(code), "{name} {sub}: {text}");
+        assert!(!text.contains("panicked"), "{name} {sub}: {text}");
+        assert!(
+            text.contains(expect),
+            "{name} {sub}: expected `{expect}` in: {text}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn run_and_info_both_refuse_a_repeated_input_seq() {
+    run_and_info_agree(
+        "dup_seq",
+        |r| r.inputs[1].seq = r.inputs[0].seq,
+        2,
+        &format!("two planner inputs with seq {}", common_seq()),
+    );
+}
+
+/// The seq of the fixture's first input.
+fn common_seq() -> u64 {
+    Recording::from_bytes(common::valid_bytes()).unwrap().inputs[0].seq
+}
+
+#[test]
+fn run_and_info_both_refuse_a_nan_horizon_length_naming_seq_and_field() {
+    let seq = common_seq();
+    run_and_info_agree(
+        "nan_length",
+        |r| r.inputs[0].length_m = f64::NAN,
+        2,
+        &format!("recorded input {seq}: OCP field length: NaN"),
+    );
+}
+
+#[test]
+fn an_input_beyond_the_curvature_centre_is_a_bad_file_not_a_difference() {
+    let seq = common_seq();
+    run_and_info_agree(
+        "absurd_kappa",
+        |r| r.inputs[0].kappa[5] = 1e308,
+        2,
+        &format!("recorded input {seq}: OCP field e_max[5]"),
+    );
+    run_and_info_agree(
+        "absurd_kappa_text",
+        |r| r.inputs[0].kappa[5] = 1e308,
+        2,
+        "curvature centre of kappa[5] = 1e308",
+    );
+}
+
+#[test]
+fn an_output_that_matches_no_input_exits_1_with_its_seq() {
+    run_and_info_agree(
+        "orphan_output",
+        |r| r.outputs[1].seq = 999,
+        1,
+        "match no input and cannot be verified: seq 999",
+    );
+}

@@ -26,12 +26,17 @@ pub(crate) fn parse_toml<T: DeserializeOwned>(file: &Path, text: &str) -> Result
 pub(crate) struct Fields<'a> {
     /// The file the values come from.
     pub file: &'a Path,
+    /// The interval count a horizon must have (the planner's compiled-in N), if any.
+    pub horizon: Option<usize>,
 }
 
 impl<'a> Fields<'a> {
     /// Creates the checker for `file`.
     pub fn new(file: &'a Path) -> Self {
-        Fields { file }
+        Fields {
+            file,
+            horizon: None,
+        }
     }
 
     /// The value, or [`ConfigError::Missing`].

@@ -132,8 +132,11 @@ pub fn load_vehicle(path: &Path) -> Result<VehicleParams, ConfigError> {
         fmax_floor_frac: f.pos(md.fmax_floor_frac, "model.fmax_floor_frac")?,
     };
 
-    // The consistency checks (a + b = L, torque limits ordered, ...) are the model's own.
+    // The consistency checks (a + b = L, torque limits ordered, ...) and the physical
+    // ranges are the model's own.
     p.check()
         .map_err(|e| f.invalid(e.field, e.value, e.expected))?;
+    p.check_ranges()
+        .map_err(|e| f.invalid(e.field, format!("{:?}", e.value), e.expected))?;
     Ok(p)
 }

@@ -171,6 +171,51 @@ impl VehicleParams {
         Ok(())
     }
 
+    /// Checks the physical ranges a vehicle file is accepted in ([`PHYSICAL_RANGES`]):
+    /// wide enough for any road or race car, narrow enough that the model's scaling
+    /// (nominal magnitudes of states, controls and residuals) and the equilibrium guess
+    /// stay meaningful. The error names the key and gives the accepted range.
+    pub fn check_ranges(&self) -> Result<(), ParamError> {
+        for &(field, lo, hi, unit) in PHYSICAL_RANGES.iter() {
+            let v = self.value_of(field);
+            if !(lo..=hi).contains(&v) {
+                return Err(ParamError {
+                    field,
+                    value: v,
+                    expected: format!("must lie within the accepted range [{lo:e}, {hi:e}] {unit}"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The value of a [`PHYSICAL_RANGES`] key (NaN for any other name).
+    fn value_of(&self, field: &str) -> f64 {
+        match field {
+            "chassis.m" => self.m,
+            "chassis.L" => self.l,
+            "chassis.h_cg" => self.h_cg,
+            "chassis.I_z" => self.i_z,
+            "chassis.g" => self.g,
+            "wheel.R_w" => self.r_w,
+            "wheel.I_w" => self.i_w,
+            "tire.C_f" => self.c_f,
+            "tire.C_r" => self.c_r,
+            "tire.mu" => self.mu,
+            "load_transfer.c_L" => self.c_l,
+            "limits.T_comb_max" => self.t_comb_max,
+            "limits.T_comb_min" => self.t_comb_min,
+            "limits.T_bf_min" => self.t_bf_min,
+            "limits.V_wr_min" => self.v_wr_min,
+            "limits.delta_rate_max" => self.delta_rate_max,
+            "limits.T_comb_rate_max" => self.t_comb_rate_max,
+            "limits.T_bf_rate_max" => self.t_bf_rate_max,
+            "model.eps_sigma" => self.eps_sigma,
+            "model.eps_sat" => self.eps_sat,
+            _ => f64::NAN,
+        }
+    }
+
     /// Static front axle load F_z,nom,f = m g b / L \[N\].
     pub fn fz_nom_front(&self) -> f64 {
         self.m * self.g * self.b / self.l
@@ -180,6 +225,31 @@ impl VehicleParams {
         self.m * self.g * self.a / self.l
     }
 }
+
+/// Accepted range of each scaled vehicle-file key: (key, lowest, highest, unit). Checked
+/// by [`VehicleParams::check_ranges`] when a vehicle file is loaded.
+pub const PHYSICAL_RANGES: [(&str, f64, f64, &str); 20] = [
+    ("chassis.m", 50.0, 1e5, "kg"),
+    ("chassis.L", 0.5, 20.0, "m"),
+    ("chassis.h_cg", 0.05, 5.0, "m"),
+    ("chassis.I_z", 1.0, 1e7, "kg m^2"),
+    ("chassis.g", 1.0, 30.0, "m/s^2"),
+    ("wheel.R_w", 0.05, 2.0, "m"),
+    ("wheel.I_w", 1e-2, 1e4, "kg m^2"),
+    ("tire.C_f", 1e3, 1e8, "N/rad"),
+    ("tire.C_r", 1e3, 1e8, "N/rad"),
+    ("tire.mu", 0.05, 3.0, "-"),
+    ("load_transfer.c_L", 0.1, 1e3, "1/s"),
+    ("limits.T_comb_max", 1.0, 1e6, "N m"),
+    ("limits.T_comb_min", -1e6, -1.0, "N m"),
+    ("limits.T_bf_min", -1e6, -1.0, "N m"),
+    ("limits.V_wr_min", -1.0, 10.0, "m/s"),
+    ("limits.delta_rate_max", 1e-2, 100.0, "rad/s"),
+    ("limits.T_comb_rate_max", 1.0, 1e8, "N m/s"),
+    ("limits.T_bf_rate_max", 1.0, 1e8, "N m/s"),
+    ("model.eps_sigma", 1e-8, 0.1, "-"),
+    ("model.eps_sat", 1e-6, 1.0, "-"),
+];
 
 /// Test fixture: the Lexus LC 500 values of `vehicles/lc500.toml`, built in code (no file
 /// read).
@@ -232,5 +302,19 @@ mod tests {
         assert_eq!(field(&|p| p.a = 2.0), "chassis.a + chassis.b");
         assert_eq!(field(&|p| p.t_bf_min = 10.0), "limits.T_bf_min");
         assert_eq!(field(&|p| p.delta_max = 2.0), "limits.delta_max");
+    }
+
+    #[test]
+    fn the_lc500_lies_in_the_physical_ranges_and_extreme_masses_do_not() {
+        assert_eq!(lc500().check_ranges(), Ok(()));
+        for (key, _, _, _) in PHYSICAL_RANGES {
+            assert!(!lc500().value_of(key).is_nan(), "{key} has no value");
+        }
+        for m in [1e300, 1e-6] {
+            let p = VehicleParams { m, ..lc500() };
+            let e = p.check_ranges().expect_err("must be refused");
+            assert_eq!(e.field, "chassis.m");
+            assert!(e.expected.contains("[5e1, 1e5] kg"), "{e}");
+        }
     }
 }

@@ -2,6 +2,7 @@
 //! options and the vehicle. Built from config + track; consumed by a transcription.
 
 use crate::model::{ix, ParamError, VehicleParams, NX, STATE_NAMES};
+use crate::track::beyond_curvature_centre;
 
 /// How the initial state x_0 is treated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,6 +76,7 @@ impl OcpSpec {
 
     /// Checks what the transcription and the guess rely on: N >= 1, a finite positive
     /// length, finite per-node vectors of N + 1 entries with e_min < e_max at every node,
+    /// both short of the curvature centre ([`check_road`]),
     /// 0 < v_min < v_max, a finite fixed initial state, and the vehicle's own domain
     /// ([`VehicleParams::check`]). The config loaders ensure this for their files; data
     /// from elsewhere (a recording, a message) must pass it before it is solved.
@@ -135,8 +137,9 @@ impl OcpSpec {
     }
 }
 
-/// Checks road samples: `n + 1` finite entries each and e_min < e_max at every node. The
-/// error names the vector and the node. Allocates only for the error.
+/// Checks road samples: `n + 1` finite entries each, e_min < e_max at every node and both
+/// bounds short of the curvature centre ([`beyond_curvature_centre`]). The error names the
+/// vector and the node. Allocates only for the error.
 pub fn check_road(kappa: &[f64], e_min: &[f64], e_max: &[f64], n: usize) -> Result<(), SpecError> {
     let bad = |field: String, problem: String| SpecError::Field { field, problem };
     for (name, v) in [("kappa", kappa), ("e_min", e_min), ("e_max", e_max)] {
@@ -158,6 +161,19 @@ pub fn check_road(kappa: &[f64], e_min: &[f64], e_max: &[f64], n: usize) -> Resu
             format!("e_min[{k}]"),
             format!("{} is not below e_max[{k}] = {}", e_min[k], e_max[k]),
         ));
+    }
+    for k in 0..=n {
+        if let Some((name, room)) = beyond_curvature_centre(kappa[k], e_min[k], e_max[k]) {
+            let e = if name == "e_min" { e_min[k] } else { e_max[k] };
+            return Err(bad(
+                format!("{name}[{k}]"),
+                format!(
+                    "{e} is at or beyond the curvature centre of kappa[{k}] = {:?} \
+                     (1 - kappa e = {room:?}; the spatial dynamics need it positive)",
+                    kappa[k]
+                ),
+            ));
+        }
     }
     Ok(())
 }
@@ -298,6 +314,9 @@ mod tests {
         );
         assert!(refused(|s| s.steering_slew_weight = 1001.0).contains("steering_slew_weight"));
         assert!(refused(|s| s.e_min[3] = 2.0).contains("e_min[3]"));
+        assert!(refused(|s| s.kappa[1] = 1e308).contains("e_max[1]"));
+        assert!(refused(|s| s.kappa[4] = -0.5).contains("e_min[4]"));
+        assert!(refused(|s| s.kappa[0] = 0.5).contains("curvature centre"));
         assert!(refused(|s| s.v_min = 0.0).contains("v_min"));
         assert!(refused(|s| s.v_max = 0.5).contains("v_max"));
         assert!(refused(|s| s.initial = InitialState::Fixed([f64::NAN; NX])).contains("x0.r"));

@@ -14,4 +14,4 @@ mod segment;
 pub use centerline::{KNOT_SPACING_M, PENALTY_LAMBDA};
 pub use error::TrackFileError;
 pub use profile::{Profile, PROFILE_COLUMNS};
-pub use segment::{piecewise_constant, BoundsOverride, Road, Segment};
+pub use segment::{beyond_curvature_centre, piecewise_constant, BoundsOverride, Road, Segment};

@@ -1,6 +1,7 @@
 //! Periodic curvature/width profile on a uniform arc-length grid.
 
 use super::csv::read_rows;
+use super::segment::beyond_curvature_centre;
 use super::TrackFileError;
 use std::path::Path;
 
@@ -43,7 +44,9 @@ impl Profile {
     /// `lap_length` \[m\].
     ///
     /// Checks the header, 4 finite numbers per row, s_0 = 0, s strictly increasing with a
-    /// constant step, widths > 0, and `s_last < lap_length <= s_last + step`.
+    /// constant step, widths > 0, both track edges short of the curvature centre
+    /// (1 - kappa w_left > 0 and 1 + kappa w_right > 0, where the model's spatial dynamics
+    /// divide by 1 - kappa e), and `s_last < lap_length <= s_last + step`.
     pub fn load(path: &Path, lap_length: f64) -> Result<Self, TrackFileError> {
         let rows = read_rows(path, &PROFILE_COLUMNS, true)?;
         let first = &rows[0];
@@ -98,6 +101,21 @@ impl Profile {
                         format!("{name} = {w}: must be positive"),
                     ));
                 }
+            }
+            if let Some((bound, room)) = beyond_curvature_centre(k, -wr, wl) {
+                let (name, w) = if bound == "e_min" {
+                    ("w_right_m", wr)
+                } else {
+                    ("w_left_m", wl)
+                };
+                return Err(TrackFileError::csv(
+                    path,
+                    r.line,
+                    format!(
+                        "kappa_1pm = {k:?}: the track edge {name} = {w} lies at or beyond the \
+                         curvature centre (1 - kappa e = {room:?}); |kappa| must stay below 1 / {name}"
+                    ),
+                ));
             }
             kappa.push(k);
             w_right.push(wr);

@@ -101,6 +101,18 @@ impl Segment {
     }
 }
 
+/// The first lateral bound at or beyond the road's curvature centre, as (`"e_min"` or
+/// `"e_max"`, 1 - kappa e there), or `None` when 1 - kappa e > 0 at both bounds and so
+/// across the lane between them. The spatial dynamics divide by 1 - kappa e (s' = V
+/// cos(dpsi) / (1 - kappa e), paper eq. 1): e must stay short of 1/kappa for kappa > 0
+/// and above 1/kappa for kappa < 0. NaN inputs count as beyond.
+pub fn beyond_curvature_centre(kappa: f64, e_min: f64, e_max: f64) -> Option<(&'static str, f64)> {
+    [("e_min", e_min), ("e_max", e_max)]
+        .into_iter()
+        .map(|(name, e)| (name, 1.0 - kappa * e))
+        .find(|&(_, room)| room.is_nan() || room <= 0.0)
+}
+
 /// Right-continuous piecewise-constant function: the value of the last piece
 /// `(s_i, v_i)` with `s_i <= s` (the first piece's value before its start).
 /// A tolerance of 1e-9 (absolute, in s) puts a point on a breakpoint into the new piece.

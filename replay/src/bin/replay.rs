@@ -4,8 +4,10 @@
 //! summarises a file; `replay record-oval` records a 10 Hz replanning drive on the oval;
 //! `replay recover IN OUT` rewrites what a file cut short holds as a clean file. A file
 //! cut short (a killed recorder) is read up to its last complete chunk, with a warning.
-//! Exit code 0 on success, 1 when a replayed output differs from the recorded one, 2 on
-//! bad input (unreadable or damaged file, bad options).
+//! Exit code 0 on success, 1 when a replayed output differs from the recorded one or a
+//! recorded output matches no input, 2 on bad input (unreadable or damaged file, an input
+//! outside the model's domain or a repeated seq, bad options); `info` makes the same
+//! checks as `run` short of solving.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -177,7 +179,9 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 v["plot"] = plot.map(|p| p.display().to_string()).into();
                 v["recorder_dropped"] = rec.dropped().into();
                 outln!("{v}");
-                return Ok(exit(deterministic || report.different == 0));
+                return Ok(exit(
+                    (deterministic || report.different == 0) && report.orphan_outputs.is_empty(),
+                ));
             }
             out!("{report}");
             if let Some(d) = rec.dropped().filter(|d| *d > 0) {
@@ -186,11 +190,17 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             if let Some(png) = &plot {
                 outln!("wrote {}", png.display());
             }
-            Ok(exit(report.different == 0))
+            Ok(exit(
+                report.different == 0 && report.orphan_outputs.is_empty(),
+            ))
         }
         Command::Info { file, json } => {
             let rec = read(&file)?;
-            let info = replay::info::info(&rec);
+            // The checks `run` makes before solving: both commands refuse the same files.
+            let checked =
+                replay::validate::validate(&rec).map_err(|e| format!("{}: {e}", file.display()))?;
+            let mut info = replay::info::info(&rec);
+            info.orphan_outputs = checked.orphan_outputs;
             if json {
                 let mut v = serde_json::to_value(&info).map_err(|e| e.to_string())?;
                 v["file"] = file.display().to_string().into();
@@ -198,7 +208,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             } else {
                 out!("{}: {info}", file.display());
             }
-            Ok(ExitCode::SUCCESS)
+            Ok(exit(info.orphan_outputs.is_empty()))
         }
         Command::Recover { input, output } => {
             let rec = read(&input)?;

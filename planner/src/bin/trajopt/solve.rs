@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use plan_record::{now_ns, PlanInput, Record, Recorder};
-use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::config::{load_scenario_for_horizon, load_solver, load_vehicle};
 use planner::guess::GuessKind;
 use planner::ip::{Nlp, Settings, SolveInfo};
 use planner::ocp::OcpSpec;
@@ -157,8 +157,13 @@ pub fn run(args: SolveArgs) -> Result<(), String> {
 /// the scenario must have the horizon this build solves.
 fn load_inputs(args: &SolveArgs) -> Result<Inputs, String> {
     let vehicle = load_vehicle(&resolve(&args.vehicle)).map_err(|e| e.to_string())?;
-    let mut spec = load_scenario(&resolve(&args.scenario), args.segment.as_deref(), vehicle)
-        .map_err(|e| e.to_string())?;
+    let mut spec = load_scenario_for_horizon(
+        &resolve(&args.scenario),
+        args.segment.as_deref(),
+        vehicle,
+        HORIZON,
+    )
+    .map_err(|e| e.to_string())?;
     if let Some(sat) = args.tire_saturation {
         spec.enforce_tire_saturation = matches!(sat, OnOff::On);
     }

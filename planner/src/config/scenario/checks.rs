@@ -7,7 +7,7 @@ use crate::config::ConfigError;
 use crate::model::{ix, VehicleParams, NX};
 use crate::ocp::spec::InitialDomain;
 use crate::ocp::{InitialState, OcpSpec, MAX_STEERING_SLEW_WEIGHT};
-use crate::track::Road;
+use crate::track::{beyond_curvature_centre, Road};
 
 pub(super) fn objective(f: Fields<'_>, v: Option<&str>, field: &str) -> Result<(), ConfigError> {
     f.one_of(v, field, &["min_time"]).map(|_| ())
@@ -28,7 +28,8 @@ pub(super) fn slew_weight(f: Fields<'_>, v: Option<f64>, field: &str) -> Result<
     Ok(w)
 }
 
-/// Validated horizon: (length, N). `ds` is a check value: length / N within 1e-9 relative.
+/// Validated horizon: (length, N), N equal to the required horizon if `f` names one. `ds`
+/// is a check value: length / N within 1e-9 relative.
 pub(super) fn horizon(
     f: Fields<'_>,
     length: (Option<f64>, &str),
@@ -37,6 +38,13 @@ pub(super) fn horizon(
 ) -> Result<(f64, usize), ConfigError> {
     let l = f.pos(length.0, length.1)?;
     let n_int = f.count(n.0, n.1)?;
+    if let Some(want) = f.horizon.filter(|&want| want != n_int) {
+        return Err(f.invalid(
+            n.1,
+            n_int,
+            format!("must be {want}, the horizon N the planner is built for"),
+        ));
+    }
     let ds_v = f.pos(ds.0, ds.1)?;
     let want = l / n_int as f64;
     if (ds_v - want).abs() > 1e-9 * want {
@@ -117,7 +125,29 @@ pub(super) fn initial_state(
     Ok(InitialState::Fixed(x))
 }
 
-/// Finite values everywhere and e_min < e_max at every node of the road of scenario `name`.
+/// `field` = `kappa` refused unless the lane `e_min..e_max` stays short of its curvature
+/// centre ([`beyond_curvature_centre`]).
+pub(super) fn curvature(
+    f: Fields<'_>,
+    field: &str,
+    kappa: f64,
+    (e_min, e_max): (f64, f64),
+) -> Result<(), ConfigError> {
+    match beyond_curvature_centre(kappa, e_min, e_max) {
+        None => Ok(()),
+        Some((bound, room)) => Err(f.invalid(
+            field,
+            format!("{kappa:?}"),
+            format!(
+                "puts the lane's {bound} at or beyond the curvature centre (1 - kappa e = {room:?}); \
+                 |kappa| must stay below 1 / |e| for e_min = {e_min}, e_max = {e_max}"
+            ),
+        )),
+    }
+}
+
+/// Finite values everywhere, e_min < e_max and both bounds short of the curvature centre
+/// ([`beyond_curvature_centre`]) at every node of the road of scenario `name`.
 fn check_road(f: Fields<'_>, name: &str, road: &Road) -> Result<(), ConfigError> {
     for k in 0..road.kappa.len() {
         let (kap, lo, hi) = (road.kappa[k], road.e_min[k], road.e_max[k]);
@@ -136,11 +166,22 @@ fn check_road(f: Fields<'_>, name: &str, road: &Road) -> Result<(), ConfigError>
                 "lateral bounds must satisfy e_min < e_max",
             ));
         }
+        if let Some((bound, room)) = beyond_curvature_centre(kap, lo, hi) {
+            return Err(f.invalid(
+                &field,
+                format!("kappa {kap:?}, e_min {lo}, e_max {hi}"),
+                format!(
+                    "{bound} is at or beyond the curvature centre (1 - kappa e = {room:?}); \
+                     the lane must stay short of 1/kappa"
+                ),
+            ));
+        }
     }
     Ok(())
 }
 
-/// Checks the road (finite, e_min < e_max at every node), reads the initial state
+/// Checks the road (finite, e_min < e_max and short of the curvature centre at every
+/// node), reads the initial state
 /// against it and assembles the spec.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn finish(

@@ -106,8 +106,30 @@ pub fn load_scenario(
     select: Option<&str>,
     vehicle: VehicleParams,
 ) -> Result<OcpSpec, ConfigError> {
+    load(Fields::new(path), select, vehicle)
+}
+
+/// [`load_scenario`] for a planner built for `n_intervals` intervals (such as
+/// [`crate::HORIZON`]): a file with another interval count is refused with the file and
+/// its key named.
+pub fn load_scenario_for_horizon(
+    path: &Path,
+    select: Option<&str>,
+    vehicle: VehicleParams,
+    n_intervals: usize,
+) -> Result<OcpSpec, ConfigError> {
+    let mut f = Fields::new(path);
+    f.horizon = Some(n_intervals);
+    load(f, select, vehicle)
+}
+
+fn load(
+    f: Fields<'_>,
+    select: Option<&str>,
+    vehicle: VehicleParams,
+) -> Result<OcpSpec, ConfigError> {
+    let path = f.file;
     let text = read_text(path)?;
-    let f = Fields::new(path);
     match kind_of(f, &text)? {
         Kind::Single => single::load(f, parse_toml(path, &text)?, select, vehicle),
         Kind::Segments => segments::load(f, parse_toml(path, &text)?, select, vehicle),

@@ -1,7 +1,7 @@
 //! The collision-avoidance schema: `[[scenarios]]` on a straight road of constant
 //! curvature, each with bound overrides that put obstacles into the lateral bounds.
 
-use super::checks::{finish, horizon, objective, slew_weight, speeds};
+use super::checks::{curvature, finish, horizon, objective, slew_weight, speeds};
 use super::schema::ObstacleFile;
 use super::select::pick;
 use crate::config::fields::Fields;
@@ -38,6 +38,7 @@ pub(super) fn load(
     let kappa = f.num(c.kappa_1pm, "common.kappa_1pm")?;
     let e_min = f.num(c.road_e_min_m, "common.road_e_min_m")?;
     let e_max = f.num(c.road_e_max_m, "common.road_e_max_m")?;
+    curvature(f, "common.kappa_1pm", kappa, (e_min, e_max))?;
     let (v_min, v_max) = speeds(
         f,
         (c.v_min_mps, "common.v_min_mps"),

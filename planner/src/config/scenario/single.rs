@@ -1,7 +1,7 @@
 //! The single-road schema (the oval): a `[horizon]` and a `[track]` whose curvature is
 //! piecewise constant, with constant lateral bounds.
 
-use super::checks::{finish, horizon, objective, slew_weight, speeds};
+use super::checks::{curvature, finish, horizon, objective, slew_weight, speeds};
 use super::schema::{Geometry, SingleFile};
 use crate::config::fields::Fields;
 use crate::config::ConfigError;
@@ -70,6 +70,9 @@ pub(super) fn load(
     }
     let e_min = f.num(t.e_min_m, "track.e_min_m")?;
     let e_max = f.num(t.e_max_m, "track.e_max_m")?;
+    for (i, &(_, k)) in pieces.iter().enumerate() {
+        curvature(f, &format!("track.kappa_pieces[{i}]"), k, (e_min, e_max))?;
+    }
     let b = f.req(file.bounds, "bounds")?;
     let (v_min, v_max) = speeds(
         f,

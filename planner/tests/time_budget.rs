@@ -138,3 +138,30 @@ fn the_infeasible_case_under_an_80_ms_budget_ends_in_time_without_a_feasible_poi
         "stopped after {elapsed} s on a budget of {budget} s"
     );
 }
+
+/// `trajopt solve` run from the workspace root with `args`.
+fn trajopt(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_trajopt"))
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn trajopt_solve_budget_ms_ends_time_limit_and_reports_the_best_iterate() {
+    let out = trajopt(&["solve", "--budget-ms", "2", "--no-output", "--json"]);
+    assert!(out.status.success(), "{out:?}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["status"], "time_limit", "{v}");
+    assert_eq!(v["best_iterate"], true, "{v}");
+    assert!(v["best_iteration"].as_u64().is_some(), "{v}");
+    assert!(
+        v["max_violation"].as_f64().is_some_and(f64::is_finite),
+        "{v}"
+    );
+    for bad in ["0", "-1", "nan", "3600001"] {
+        let out = trajopt(&["solve", "--budget-ms", bad, "--no-output"]);
+        assert!(!out.status.success(), "--budget-ms {bad} was accepted");
+    }
+}

@@ -126,3 +126,20 @@ impl Clock {
         r
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_deadline_is_checked_against_the_wall_clock_and_copies_share_it() {
+        let spent = Clock::start(1e-9).deadline;
+        std::thread::sleep(std::time::Duration::from_millis(1));
+        assert_eq!(spent.check(), Err(OutOfTime));
+        let copy = spent;
+        assert!(copy.passed());
+        let far = Clock::start(3600.0);
+        assert_eq!(far.deadline.check(), Ok(()));
+        assert!(!far.out_of_time());
+    }
+}

@@ -12,7 +12,7 @@ pub enum Status {
     Acceptable,
     /// Iteration cap hit; the best iterate is returned.
     IterationLimit,
-    /// Wall-clock cap hit; the best iterate is returned.
+    /// Wall-clock budget (`max_time_s`) spent; the best iterate is returned.
     TimeLimit,
     /// Converged to a stationary point of the constraint violation that is infeasible.
     LocallyInfeasible,
@@ -127,7 +127,8 @@ pub struct SolveInfo {
     pub iterations: usize,
     /// Objective at the returned point.
     pub objective: f64,
-    /// Max constraint violation (bounds and constraints) at the returned point.
+    /// Max constraint violation (bounds and constraints) at the returned point (the best
+    /// iterate's when `best_iterate`).
     pub max_violation: f64,
     /// Max constraint violation at the starting point (before the bound push); infinite
     /// where the model is singular there (V = 0 in the zero guess).
@@ -152,4 +153,14 @@ pub struct SolveInfo {
     pub evaluations: usize,
     /// Time per phase.
     pub times: PhaseTimes,
+    /// The returned point is the best iterate (smallest violation above the acceptable
+    /// level, then smallest KKT error), not the last one: the solve stopped at a cap
+    /// (`iteration_limit`, `time_limit`, or `acceptable` from either) or on a numerical
+    /// failure. False for `optimal`, `locally_infeasible` and an unstarted solve, which
+    /// return their last iterate.
+    pub best_iterate: bool,
+    /// The iteration of the returned point (the index of its row in the iteration log):
+    /// the best iterate's when `best_iterate`, else `iterations`. A stop inside an
+    /// iteration (the time budget) returns no point of that unfinished iteration.
+    pub best_iteration: usize,
 }

@@ -94,7 +94,10 @@ pub struct Settings {
     pub acceptable_constr_viol_tol: f64,
     /// Cap on iterations.
     pub max_iter: usize,
-    /// Wall-clock cap in seconds (checked once per iteration).
+    /// Wall-clock budget of a solve in seconds, checked at every point where the solver
+    /// can stop cleanly (each iteration, factorization, line-search trial and restoration
+    /// step); a solve that spends it ends `time_limit` with its best iterate. Not
+    /// deterministic: where a solve stops depends on the machine (`max_iter` is).
     pub max_time_s: f64,
     /// Cap on backtracking steps per line search.
     pub max_backtracks: usize,

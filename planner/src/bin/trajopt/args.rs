@@ -81,6 +81,15 @@ pub fn slew_weight_arg(v: &str) -> Result<f64, String> {
     }
 }
 
+/// `--budget-ms`: a wall-clock budget in (0, 1000 MAX_TIME_S] milliseconds.
+pub fn budget_ms_arg(v: &str) -> Result<f64, String> {
+    let max = 1e3 * planner::ip::settings::MAX_TIME_S;
+    match v.parse::<f64>() {
+        Ok(ms) if ms > 0.0 && ms <= max => Ok(ms),
+        _ => Err(format!("`{v}` is not a budget in (0, {max}] ms")),
+    }
+}
+
 // The input files and output options of the single-scenario studies (integrators,
 // stiffness).
 #[derive(clap::Args, Debug)]

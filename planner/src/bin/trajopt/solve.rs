@@ -14,7 +14,7 @@ use planner::stats::median;
 use planner::trajectory::Trajectory;
 use planner::HORIZON;
 
-use crate::args::{slew_weight_arg, BarrierArg, GuessArg, KktArg, OnOff};
+use crate::args::{budget_ms_arg, slew_weight_arg, BarrierArg, GuessArg, KktArg, OnOff};
 use crate::out::{errln, outln};
 use crate::paths::{resolve, solver_file};
 
@@ -53,6 +53,10 @@ pub struct SolveArgs {
     /// thread (overrides the solver file; same results).
     #[arg(long, value_parser = clap::value_parser!(u8).range(1..=2))]
     threads: Option<u8>,
+    /// Wall-clock budget of each solve [ms] (overrides the solver file's max_time_s): a
+    /// solve that spends it ends `time_limit` with its best iterate.
+    #[arg(long, value_name = "B", value_parser = budget_ms_arg)]
+    budget_ms: Option<f64>,
     /// Solve K times and report the median solve_ms.
     #[arg(long, default_value_t = 1)]
     repeat: usize,
@@ -180,6 +184,9 @@ fn load_inputs(args: &SolveArgs) -> Result<Inputs, String> {
     }
     if let Some(t) = args.threads {
         settings.threads = usize::from(t);
+    }
+    if let Some(ms) = args.budget_ms {
+        settings.max_time_s = 1e-3 * ms;
     }
     if spec.n_intervals != HORIZON {
         return Err(format!(
@@ -427,6 +434,8 @@ impl Report<'_> {
             "t_final": traj.t_final(),
             "objective": info.objective,
             "max_violation": info.max_violation,
+            "best_iterate": info.best_iterate,
+            "best_iteration": info.best_iteration,
             "initial_violation": info.initial_violation,
             "start_violation": info.start_violation,
             "max_abs_beta_rad": traj.max_abs_beta(),

@@ -1,5 +1,14 @@
 //! Best-iterate bookkeeping (a solve that does not converge returns the best point it
 //! saw) and the stall watch of the regular iterations.
+//!
+//! The best iterate is the one with the smallest score (v, E), compared lexicographically:
+//! v is the max constraint violation ||c||_inf where it exceeds
+//! `acceptable_constr_viol_tol`, and 0 at points feasible to that level; E is the overall
+//! scaled KKT error (dual infeasibility, violation, complementarity). So among infeasible
+//! iterates the least violated wins, any iterate feasible to the acceptable level beats
+//! every infeasible one, and among those the one closest to optimality wins. A tie keeps
+//! the earlier iterate. Every iterate the loop reaches is scored when its derivatives are
+//! evaluated, before the termination test, so an iterate a cap stops at takes part.
 
 use super::Solver;
 use crate::ip::kkt::KktSolver;
@@ -50,17 +59,41 @@ impl StallWatch {
     }
 }
 
+/// The best iterate seen so far: its score and iteration.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct BestIterate {
+    /// Its score (see [`Solver::score`]).
+    pub(super) score: (f64, f64),
+    /// The iteration it was reached at (the index of its log row).
+    pub(super) iteration: usize,
+}
+
+impl BestIterate {
+    /// No iterate scored yet: the first one beats it.
+    pub(super) fn none() -> Self {
+        Self {
+            score: (f64::INFINITY, f64::INFINITY),
+            iteration: 0,
+        }
+    }
+}
+
 impl<K: KktSolver> Solver<K> {
-    /// Saves the current iterate when its score beats `best_score`.
-    pub(super) fn watch_best(&mut self, err: &Errors, best_score: &mut (f64, f64)) {
+    /// Saves the current iterate, reached at iteration `iter`, when its score beats
+    /// `best`'s.
+    pub(super) fn watch_best(&mut self, err: &Errors, iter: usize, best: &mut BestIterate) {
         let score = self.score(err);
-        if score < *best_score {
-            *best_score = score;
+        if score < best.score {
+            *best = BestIterate {
+                score,
+                iteration: iter,
+            };
             self.save_best();
         }
     }
 
-    /// Ranking of iterates for "best so far": feasibility first, then KKT error.
+    /// Ranking of iterates for "best so far": violation above the acceptable level first,
+    /// then the overall KKT error (see the module documentation).
     pub(super) fn score(&self, e: &Errors) -> (f64, f64) {
         let feas = if e.inf_pr <= self.settings.acceptable_constr_viol_tol {
             0.0

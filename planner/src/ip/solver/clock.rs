@@ -1,4 +1,16 @@
 //! Wall-clock bookkeeping of a solve: the time budget and the time spent per phase.
+//!
+//! The budget is checked at every point where the solver can stop cleanly: at the start of
+//! each iteration, before each factorization of the inertia-correction loop (fallback
+//! included), before each line-search trial and second-order correction, and so before
+//! each restoration step's factorization and trials. Between two checks lies at most one
+//! factorization with its direction solves, or one trial evaluation with the next
+//! iterate's derivative evaluation, or one Hessian evaluation; after the stop the best
+//! iterate is evaluated once more. That bounds the overshoot of a solve past its budget.
+//! A check is one clock read and changes no arithmetic, so a solve that does not run out
+//! of time gives the same bits whatever its budget; one that does stops at a point that
+//! depends on the machine's speed (the time budget is not deterministic, the iteration
+//! cap is).
 
 use std::time::Instant;
 
@@ -17,6 +29,11 @@ pub(super) enum Phase {
     LineSearch,
 }
 
+/// The budget of a solve ran out: a check inside a phase fired, and the phase returned
+/// without finishing its work (the iteration loop turns this into `time_limit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct OutOfTime;
+
 /// The time budget of a solve: its start and the seconds it may take. `Copy`, so that a
 /// phase running inside [`Clock::time`] can hold its own copy and check it.
 #[derive(Debug, Clone, Copy)]
@@ -34,6 +51,15 @@ impl Deadline {
     /// Whether the time budget is spent.
     pub(super) fn passed(&self) -> bool {
         self.elapsed() > self.max_time_s
+    }
+
+    /// `Err(OutOfTime)` once the time budget is spent (one clock read).
+    pub(super) fn check(&self) -> Result<(), OutOfTime> {
+        if self.passed() {
+            Err(OutOfTime)
+        } else {
+            Ok(())
+        }
     }
 }
 
@@ -98,5 +124,22 @@ impl Clock {
         self.times.evaluation += teval;
         *self.slot(phase) += t.elapsed().as_secs_f64() - teval;
         r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_deadline_is_checked_against_the_wall_clock_and_copies_share_it() {
+        let spent = Clock::start(1e-9).deadline;
+        std::thread::sleep(std::time::Duration::from_millis(1));
+        assert_eq!(spent.check(), Err(OutOfTime));
+        let copy = spent;
+        assert!(copy.passed());
+        let far = Clock::start(3600.0);
+        assert_eq!(far.deadline.check(), Ok(()));
+        assert!(!far.out_of_time());
     }
 }

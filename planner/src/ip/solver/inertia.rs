@@ -1,7 +1,7 @@
 //! Factorization of the KKT matrix with inertia correction (IPOPT's Algorithm IC) and the
 //! convexified fallback when the correction runs out of attempts.
 
-use super::clock::{Clock, Phase};
+use super::clock::{Clock, Deadline, Phase};
 use super::{LoopState, Next, Solver};
 use crate::elementary::pow;
 use crate::ip::info::{SolveInfo, Status, StepKind};
@@ -17,6 +17,24 @@ pub(super) struct Factorization {
     pub(super) count: usize,
     /// The convexified fallback matrix was factorized (see [`Solver::factorize_with`]).
     pub(super) fallback: bool,
+}
+
+/// Why the inertia-corrected factorization returned no factorization.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Unfactorized {
+    /// The backend failed (non-finite or unsupported matrix); factorizations spent.
+    Failed(usize),
+    /// The time budget ran out before the next factorization; factorizations spent.
+    OutOfTime(usize),
+}
+
+impl Unfactorized {
+    /// Factorizations spent before the failure.
+    pub(super) fn count(self) -> usize {
+        match self {
+            Unfactorized::Failed(count) | Unfactorized::OutOfTime(count) => count,
+        }
+    }
 }
 
 impl Factorization {
@@ -36,7 +54,8 @@ impl Factorization {
 impl<K: KktSolver> Solver<K> {
     /// The iteration's factorization, counted in `info`. When the backend fails, a
     /// significant violation hands over to restoration (the rejected iteration is
-    /// logged); otherwise the solve stops.
+    /// logged); otherwise the solve stops. When the time budget runs out between
+    /// factorizations, the solve stops with `time_limit`.
     pub(super) fn factorize_iteration(
         &mut self,
         st: &mut LoopState,
@@ -45,20 +64,25 @@ impl<K: KktSolver> Solver<K> {
         info: &mut SolveInfo,
         clock: &mut Clock,
     ) -> Result<Factorization, Next> {
-        let (mu, force_reg) = (st.mu, st.force_reg);
-        let fact = clock.time(Phase::Factorization, || self.factorize(mu, force_reg));
+        let (mu, force_reg, deadline) = (st.mu, st.force_reg, clock.deadline);
+        let fact = clock.time(Phase::Factorization, || {
+            self.factorize(mu, force_reg, deadline)
+        });
+        let count = match &fact {
+            Ok(fact) => fact.count,
+            Err(u) => u.count(),
+        };
+        info.factorizations += count;
+        info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(count);
         match fact {
             Ok(fact) => {
-                info.factorizations += fact.count;
-                info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(fact.count);
                 if fact.fallback {
                     info.fallback_steps += 1;
                 }
                 Ok(fact)
             }
-            Err(count) => {
-                info.factorizations += count;
-                info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(count);
+            Err(Unfactorized::OutOfTime(_)) => Err(Next::Stop(Status::TimeLimit)),
+            Err(Unfactorized::Failed(count)) => {
                 if st.may_restore(err.inf_pr, self.settings.max_restoration_steps) {
                     st.enter_restoration(super::norm2(&self.ws.c));
                     self.push_log(
@@ -79,23 +103,32 @@ impl<K: KktSolver> Solver<K> {
         }
     }
 
-    /// Factorizes the KKT matrix, raising delta_w until the inertia is (n, m, 0).
-    pub(super) fn factorize(&mut self, mu: f64, force_reg: bool) -> Result<Factorization, usize> {
+    /// Factorizes the KKT matrix, raising delta_w until the inertia is (n, m, 0); checks
+    /// `deadline` before each factorization.
+    pub(super) fn factorize(
+        &mut self,
+        mu: f64,
+        force_reg: bool,
+        deadline: Deadline,
+    ) -> Result<Factorization, Unfactorized> {
         let delta_c = if self.kkt.wants_dual_regularization() {
             self.settings.delta_c_min
         } else {
             0.0
         };
-        self.factorize_with(mu, force_reg, delta_c)
+        self.factorize_with(mu, force_reg, delta_c, deadline)
     }
 
     /// Inertia-corrected factorization with dual regularization at least `delta_c_base`.
+    /// Before each factorization (the fallback's included) it checks `deadline`, and
+    /// returns [`Unfactorized::OutOfTime`] once the budget is spent.
     pub(super) fn factorize_with(
         &mut self,
         mu: f64,
         force_reg: bool,
         delta_c_base: f64,
-    ) -> Result<Factorization, usize> {
+        deadline: Deadline,
+    ) -> Result<Factorization, Unfactorized> {
         let s = self.settings;
         let (n, m) = (self.ws.n, self.ws.m);
         self.compute_sigma();
@@ -123,6 +156,9 @@ impl<K: KktSolver> Solver<K> {
             .max_inertia_corrections
             .min(s.max_refactorizations.saturating_sub(1));
         while count < attempts {
+            if deadline.passed() {
+                return Err(Unfactorized::OutOfTime(count));
+            }
             self.fill_diagonals(delta_w, delta_c);
             count += 1;
             let ws = &self.ws;
@@ -154,7 +190,9 @@ impl<K: KktSolver> Solver<K> {
                 Err(KktError::Singular) => {
                     delta_c = delta_c.max(1e-8 * pow(mu.max(1e-12), 0.25));
                 }
-                Err(KktError::NonFinite | KktError::Unsupported) => return Err(count),
+                Err(KktError::NonFinite | KktError::Unsupported) => {
+                    return Err(Unfactorized::Failed(count))
+                }
             }
             delta_w = if delta_w == 0.0 {
                 if self.delta_w_last == 0.0 {
@@ -174,7 +212,11 @@ impl<K: KktSolver> Solver<K> {
         // The next iteration starts its corrections from the largest shift tried here.
         let delta_w = delta_w.min(s.delta_w_max);
         self.delta_w_last = delta_w;
+        if deadline.passed() {
+            return Err(Unfactorized::OutOfTime(count));
+        }
         self.factorize_fallback(delta_w, delta_c, count)
+            .map_err(Unfactorized::Failed)
     }
 
     /// The bounded answer to bad inertia: factorize the KKT matrix with the Hessian

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use super::clock::{Clock, Phase};
+use super::clock::{Clock, Deadline, OutOfTime, Phase};
 use super::ln_sum::LnSum;
 use super::{LoopState, Solver};
 use crate::elementary::pow;
@@ -31,7 +31,8 @@ const MAX_SOC: usize = 4;
 impl<K: KktSolver> Solver<K> {
     /// The iteration's line search along the current direction by the configured
     /// globalization, from a point with ||c||_1 = `theta`. Returns (alpha, backtracks, used
-    /// a second-order correction), or None when no step was accepted.
+    /// a second-order correction), or None when no step was accepted; `Err(OutOfTime)`
+    /// when the time budget ran out before a trial.
     pub(super) fn search<P: Nlp + ?Sized>(
         &mut self,
         nlp: &mut P,
@@ -40,16 +41,23 @@ impl<K: KktSolver> Solver<K> {
         delta_w: f64,
         info: &mut SolveInfo,
         clock: &mut Clock,
-    ) -> Option<(f64, usize, bool)> {
+    ) -> Result<Option<(f64, usize, bool)>, OutOfTime> {
         let s = self.settings;
-        let (mu, theta_bounds) = (st.mu, (st.theta_min, st.theta_max));
+        let (mu, theta_bounds, deadline) = (st.mu, (st.theta_min, st.theta_max), clock.deadline);
         let nu = &mut st.nu;
         let evals = &mut info.evaluations;
         clock.time_with_evaluations(Phase::LineSearch, |teval| match s.globalization {
-            Globalization::Filter => {
-                self.filter_line_search(nlp, mu, theta, delta_w, theta_bounds, teval, evals)
-            }
-            Globalization::Merit => self.line_search(nlp, mu, nu, delta_w, teval, evals),
+            Globalization::Filter => self.filter_line_search(
+                nlp,
+                mu,
+                theta,
+                delta_w,
+                theta_bounds,
+                deadline,
+                teval,
+                evals,
+            ),
+            Globalization::Merit => self.line_search(nlp, mu, nu, delta_w, deadline, teval, evals),
         })
     }
 
@@ -71,7 +79,8 @@ impl<K: KktSolver> Solver<K> {
     /// Filter line search on (theta = ||c||_1, given for the current point, barrier
     /// objective) with second-order corrections (Waechter & Biegler 2006, Sec. 2.3-2.4).
     /// Returns (alpha, backtracks, used a second-order correction), or None when alpha fell
-    /// below alpha_min.
+    /// below alpha_min; `Err(OutOfTime)` when `deadline`, checked before each trial and
+    /// each second-order correction, has passed.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn filter_line_search<P: Nlp + ?Sized>(
         &mut self,
@@ -80,9 +89,10 @@ impl<K: KktSolver> Solver<K> {
         theta: f64,
         delta_w: f64,
         (theta_min, theta_max): (f64, f64),
+        deadline: Deadline,
         teval: &mut f64,
         evals: &mut usize,
-    ) -> Option<(f64, usize, bool)> {
+    ) -> Result<Option<(f64, usize, bool)>, OutOfTime> {
         let s = self.settings;
         let m = self.ws.m;
         let tau = (1.0 - mu).max(s.tau_min);
@@ -110,6 +120,7 @@ impl<K: KktSolver> Solver<K> {
             if alpha < alpha_min && bt > 0 {
                 break;
             }
+            deadline.check()?;
             self.set_trial(alpha);
             let Some((f_t, theta_t, phi_t)) = self.eval_trial(nlp, mu, teval, evals) else {
                 alpha *= 0.5;
@@ -131,7 +142,7 @@ impl<K: KktSolver> Solver<K> {
                 }
                 self.accept(f_t, alpha, alpha_z, mu, true);
                 self.phi_current = Some((mu.to_bits(), phi_t));
-                return Some((alpha, bt, false));
+                return Ok(Some((alpha, bt, false)));
             }
             // Second-order corrections on the first trial when the violation grew.
             if bt == 0 && theta_t >= theta && s.second_order_correction {
@@ -144,6 +155,7 @@ impl<K: KktSolver> Solver<K> {
                 let mut theta_soc_prev = theta;
                 let mut accepted = false;
                 for _ in 0..MAX_SOC {
+                    deadline.check()?;
                     self.solve_direction(delta_w, true);
                     let (ap, az) = self.max_steps(tau);
                     self.set_trial(ap);
@@ -179,13 +191,13 @@ impl<K: KktSolver> Solver<K> {
                     }
                 }
                 if accepted {
-                    return Some((alpha, bt, true));
+                    return Ok(Some((alpha, bt, true)));
                 }
                 self.restore_direction(delta_w);
             }
             alpha *= 0.5;
         }
-        None
+        Ok(None)
     }
 
     /// w_t = w + alpha dw.

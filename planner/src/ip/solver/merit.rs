@@ -1,6 +1,7 @@
 //! Backtracking line search on the l2 merit function phi_nu = barrier objective +
 //! nu ||c||_2 (paper eq. 5), with a penalty update and a second-order correction.
 
+use super::clock::{Deadline, OutOfTime};
 use super::{norm2, Solver};
 use crate::ip::kkt::KktSolver;
 use crate::ip::nlp::Nlp;
@@ -8,7 +9,8 @@ use crate::ip::sparse;
 
 impl<K: KktSolver> Solver<K> {
     /// Backtracking line search on phi_nu = barrier objective + nu ||c||_2 (paper eq. 5).
-    /// Returns (alpha, backtracks, used second-order correction), or None on failure.
+    /// Returns (alpha, backtracks, used second-order correction), or None on failure;
+    /// `Err(OutOfTime)` when `deadline`, checked before each trial, has passed.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn line_search<P: Nlp + ?Sized>(
         &mut self,
@@ -16,9 +18,10 @@ impl<K: KktSolver> Solver<K> {
         mu: f64,
         nu: &mut f64,
         delta_w: f64,
+        deadline: Deadline,
         teval: &mut f64,
         evals: &mut usize,
-    ) -> Option<(f64, usize, bool)> {
+    ) -> Result<Option<(f64, usize, bool)>, OutOfTime> {
         let s = self.settings;
         let (n, m) = (self.ws.n, self.ws.m);
         let tau = (1.0 - mu).max(s.tau_min);
@@ -82,21 +85,23 @@ impl<K: KktSolver> Solver<K> {
         let mut alpha = alpha_max;
         let mut soc_tried = false;
         for bt in 0..s.max_backtracks {
+            deadline.check()?;
             self.set_trial(alpha);
             if let Some((f_t, _, _)) = self.eval_trial(nlp, mu, teval, evals) {
                 let theta_t = norm2(&self.ws.c_t);
                 let phi_t = self.barrier_value(&self.ws.w_t, f_t, mu) + *nu * theta_t;
                 if phi_t.is_finite() && phi_t <= phi0 + s.armijo * alpha * dir_deriv.min(0.0) {
                     self.accept(f_t, alpha, alpha_z, mu, true);
-                    return Some((alpha, bt, false));
+                    return Ok(Some((alpha, bt, false)));
                 }
                 // Second-order correction on the first rejected full step.
                 if s.second_order_correction && bt == 0 && !soc_tried && theta_t >= theta {
                     soc_tried = true;
+                    deadline.check()?;
                     if let Some(a) = self.try_soc(
                         nlp, mu, *nu, phi0, dir_deriv, alpha, delta_w, tau, teval, evals,
                     ) {
-                        return Some((a, bt, true));
+                        return Ok(Some((a, bt, true)));
                     }
                 }
             }
@@ -105,7 +110,7 @@ impl<K: KktSolver> Solver<K> {
                 break;
             }
         }
-        None
+        Ok(None)
     }
 
     /// Second-order correction: re-solve with c_soc = alpha c(w) + c(w + alpha d).

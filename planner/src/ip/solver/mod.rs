@@ -28,8 +28,8 @@ use super::nlp::Nlp;
 use super::residuals::{compute_errors, Errors};
 use super::settings::Settings;
 use super::workspace::Workspace;
-use best::StallWatch;
-use clock::{Clock, Phase};
+use best::{BestIterate, StallWatch};
+use clock::{Clock, OutOfTime, Phase};
 use restoration::Restoration;
 
 /// Error constructing a solver.
@@ -89,8 +89,8 @@ struct LoopState {
     ls_failures: usize,
     /// The next factorization starts with a shift (the last line search failed).
     force_reg: bool,
-    /// Score of the best iterate so far (see [`Solver::score`]).
-    best_score: (f64, f64),
+    /// The best iterate so far (see [`Solver::score`]).
+    best: BestIterate,
     /// The feasibility restoration phase, while it runs.
     resto: Option<Restoration>,
     /// Restoration steps taken in this solve.
@@ -223,7 +223,7 @@ impl<K: KktSolver> Solver<K> {
             let f_iter = self.ws.f;
             // Valid until the step is accepted (see `accept`).
             self.ws.grad_lag_fresh = true;
-            self.watch_best(&err, &mut st.best_score);
+            self.watch_best(&err, st.iter, &mut st.best);
             info.iterations = st.iter;
             if let Some(status) = self.termination(&err, st.iter, &clock) {
                 break status;
@@ -257,7 +257,11 @@ impl<K: KktSolver> Solver<K> {
             };
             let kind = self.search_direction(&mut st, fact.delta_w, &err, &mut clock);
             let (theta_cur, f_cur) = (super::vector::norm1(&self.ws.c), self.ws.f);
-            let outcome = self.search(nlp, &mut st, theta_cur, fact.delta_w, &mut info, &mut clock);
+            let outcome =
+                match self.search(nlp, &mut st, theta_cur, fact.delta_w, &mut info, &mut clock) {
+                    Ok(outcome) => outcome,
+                    Err(OutOfTime) => break Status::TimeLimit,
+                };
             let (alpha, backtracks, step_kind) = match outcome {
                 Some((alpha, bt, soc)) => {
                     self.after_step(&mut st, &err, alpha, (theta_cur, f_cur));
@@ -338,7 +342,7 @@ impl<K: KktSolver> Solver<K> {
             theta_max: 1e4 * theta0.max(1.0),
             ls_failures: 0,
             force_reg: false,
-            best_score: (f64::INFINITY, f64::INFINITY),
+            best: BestIterate::none(),
             resto: None,
             resto_steps: 0,
             stall: StallWatch::new(),
@@ -422,6 +426,8 @@ fn unstarted_info() -> SolveInfo {
         max_factorizations_per_iter: 0,
         fallback_steps: 0,
         evaluations: 0,
+        best_iterate: false,
+        best_iteration: 0,
         times: Default::default(),
     }
 }

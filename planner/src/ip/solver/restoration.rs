@@ -4,7 +4,8 @@
 
 use std::time::Instant;
 
-use super::clock::{Clock, Phase};
+use super::clock::{Clock, Deadline, OutOfTime, Phase};
+use super::inertia::Unfactorized;
 use super::{norm2, LoopState, Next, Solver};
 use crate::ip::info::{SolveInfo, Status, StepKind};
 use crate::ip::kkt::KktSolver;
@@ -33,7 +34,8 @@ impl<K: KktSolver> Solver<K> {
     /// One iteration of the restoration phase at an iterate with errors `err`. Returns
     /// None when restoration ends here (the violation fell enough: the iteration goes on
     /// as a regular one), `Next::Continue` after a restoration step, and `Next::Stop` at a
-    /// point taken as locally infeasible or when restoration fails.
+    /// point taken as locally infeasible, when restoration fails, or (`time_limit`) when
+    /// the time budget runs out inside the step.
     pub(super) fn restoration_iteration<P: Nlp + ?Sized>(
         &mut self,
         nlp: &mut P,
@@ -81,11 +83,15 @@ impl<K: KktSolver> Solver<K> {
         st.resto_steps += 1;
         let mut nfact = 0;
         let evals = &mut info.evaluations;
+        let deadline = clock.deadline;
         let step = clock.time_with_evaluations(Phase::Factorization, |teval| {
-            self.restoration_step(nlp, mu_r, &mut nfact, teval, evals)
+            self.restoration_step(nlp, mu_r, &mut nfact, deadline, teval, evals)
         });
         info.factorizations += nfact;
         info.max_factorizations_per_iter = info.max_factorizations_per_iter.max(nfact);
+        let Ok(step) = step else {
+            return Some(Next::Stop(Status::TimeLimit));
+        };
         let Some((alpha, backtracks)) = step else {
             return Some(Next::Stop(failed));
         };
@@ -151,15 +157,18 @@ impl<K: KktSolver> Solver<K> {
 
     /// One feasibility-restoration iteration: a regularized Gauss-Newton step on
     /// 0.5 ||c||^2 - mu_r sum ln(slacks), i.e. the KKT system with H = 0 and D_c = -I,
-    /// globalized by an Armijo search. Multipliers y are left alone.
+    /// globalized by an Armijo search. Multipliers y are left alone. Returns (alpha,
+    /// backtracks), or None when the step failed; `Err(OutOfTime)` when `deadline`,
+    /// checked before each factorization and each trial, has passed.
     pub(super) fn restoration_step<P: Nlp + ?Sized>(
         &mut self,
         nlp: &mut P,
         mu_r: f64,
         nfact: &mut usize,
+        deadline: Deadline,
         teval: &mut f64,
         evals: &mut usize,
-    ) -> Option<(f64, usize)> {
+    ) -> Result<Option<(f64, usize)>, OutOfTime> {
         let s = self.settings;
         let (n, m) = (self.ws.n, self.ws.m);
         self.ws.grad_lag_fresh = false;
@@ -171,17 +180,21 @@ impl<K: KktSolver> Solver<K> {
         }
         *teval += te.elapsed().as_secs_f64();
         if self.ws.hess.iter().any(|v| !v.is_finite()) {
-            return None;
+            return Ok(None);
         }
         let theta = norm2(&self.ws.c);
-        let delta = match self.factorize_with(mu_r, false, 1.0) {
+        let delta = match self.factorize_with(mu_r, false, 1.0, deadline) {
             Ok(f) => {
                 *nfact = f.count;
                 f.delta_w
             }
-            Err(count) => {
+            Err(Unfactorized::Failed(count)) => {
                 *nfact = count;
-                return None;
+                return Ok(None);
+            }
+            Err(Unfactorized::OutOfTime(count)) => {
+                *nfact = count;
+                return Err(OutOfTime);
             }
         };
         self.set_targets(mu_r, false);
@@ -221,13 +234,14 @@ impl<K: KktSolver> Solver<K> {
         };
         let mut alpha = alpha_max;
         for bt in 0..s.max_backtracks {
+            deadline.check()?;
             self.set_trial(alpha);
             if let Some((f_t, _, _)) = self.eval_trial(nlp, mu_r, teval, evals) {
                 let th = norm2(&self.ws.c_t);
                 let phi = 0.5 * th * th + self.barrier_value(&self.ws.w_t, 0.0, mu_r);
                 if phi.is_finite() && phi <= phi0 + s.armijo * alpha * dd.min(0.0) {
                     self.accept(f_t, alpha, alpha_z, mu_r, false);
-                    return Some((alpha, bt));
+                    return Ok(Some((alpha, bt)));
                 }
             }
             alpha *= 0.5;
@@ -235,7 +249,7 @@ impl<K: KktSolver> Solver<K> {
                 break;
             }
         }
-        None
+        Ok(None)
     }
 }
 

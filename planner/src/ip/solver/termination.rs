@@ -42,9 +42,11 @@ impl<K: KktSolver> Solver<K> {
         finite(&ws.y) && finite(&ws.zl) && finite(&ws.zu)
     }
 
-    /// The final report. A solve that did not converge returns its best iterate (a
-    /// certificate of infeasibility is the current point, not the best one), reported as
-    /// acceptable when it meets the acceptable tolerances.
+    /// The final report. A solve that did not converge (a cap, the time budget, a
+    /// numerical failure) returns its best iterate (see `best`; a certificate of
+    /// infeasibility is the current point, not the best one), reported as acceptable when
+    /// it meets the acceptable tolerances; the report's errors and violation are that
+    /// iterate's, and `best_iterate`/`best_iteration` say which iterate it is.
     pub(super) fn finish<P: Nlp + ?Sized>(
         &mut self,
         nlp: &mut P,
@@ -55,7 +57,8 @@ impl<K: KktSolver> Solver<K> {
     ) -> SolveInfo {
         let s = self.settings;
         let mut final_status = status;
-        if !matches!(status, Status::Optimal | Status::LocallyInfeasible) {
+        let best = !matches!(status, Status::Optimal | Status::LocallyInfeasible);
+        if best {
             self.restore_best();
             let evals = &mut info.evaluations;
             clock.time(Phase::Evaluation, || self.reevaluate(nlp, evals));
@@ -78,6 +81,8 @@ impl<K: KktSolver> Solver<K> {
         info.dual_inf = err.inf_du / err.s_d;
         info.compl = err.compl / err.s_c;
         info.mu = st.mu;
+        info.best_iterate = best;
+        info.best_iteration = if best { st.best.iteration } else { st.iter };
         clock.times.total = clock.elapsed();
         info.times = clock.times;
         info

@@ -382,7 +382,7 @@ impl PlannerLoop {
                 Err(e) => {
                     self.rejected.count(&e);
                     let n = self.rejected.total();
-                    if n <= 10 || n % 1000 == 0 {
+                    if n <= 10 || n.is_multiple_of(1000) {
                         elog!(
                             "planner: dropped vehicle state seq {} ({n} dropped so far): {e}",
                             m.seq
@@ -406,7 +406,7 @@ impl PlannerLoop {
         let (info, warm_started) = self.solve(state, x0, s_track)?;
         if !info.status.is_success() {
             self.failed += 1;
-            if self.failed <= 10 || self.failed % 100 == 0 {
+            if self.failed <= 10 || self.failed.is_multiple_of(100) {
                 elog!(
                     "planner: plan {} ended {} after {} iterations; publishing the best iterate",
                     self.published,

@@ -10,7 +10,7 @@ use planner::config::load_solver;
 use planner::guess::GuessKind;
 use planner::ip::kkt::backend::{split_riccati, VehicleRiccati, VehicleSplitRiccati};
 use planner::ip::kkt::chain::Reduced;
-use planner::ip::kkt::{Inertia, KktBackendKind, KktError, KktSolver, KktValues, SparseLdlt};
+use planner::ip::kkt::{KktBackendKind, KktSolver, KktValues, SparseLdlt};
 use planner::ip::{Nlp, Status};
 use planner::ocp::transcription::ImplicitEulerNlp;
 use planner::ocp::{InitialState, OcpSpec};

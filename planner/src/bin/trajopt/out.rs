@@ -1,4 +1,4 @@
-//! Standard output of `trajopt`: every write goes through [`print`] (the [`outln!`] and
+//! Standard output of `trajopt`: every write goes through [`print()`] (the [`outln!`] and
 //! [`out!`] macros), which turns a failed write into an error instead of a panic. A reader
 //! that went away (a closed pipe, as with `trajopt ... | head`) ends the program quietly
 //! with success, like the standard Unix tools; a stream that cannot take the bytes (a full
@@ -16,14 +16,14 @@ pub fn print(args: std::fmt::Arguments) -> Result<(), String> {
     }
 }
 
-/// `print!` to stdout through [`print`]; returns its error from the enclosing function.
+/// `print!` to stdout through [`print()`]; returns its error from the enclosing function.
 macro_rules! out {
     ($($arg:tt)*) => {
         $crate::out::print(format_args!($($arg)*))?
     };
 }
 
-/// `println!` to stdout through [`print`]; returns its error from the enclosing function.
+/// `println!` to stdout through [`print()`]; returns its error from the enclosing function.
 macro_rules! outln {
     ($($arg:tt)*) => {
         $crate::out::print(format_args!("{}\n", format_args!($($arg)*)))?

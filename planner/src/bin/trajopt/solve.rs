@@ -53,7 +53,7 @@ pub struct SolveArgs {
     /// thread (overrides the solver file; same results).
     #[arg(long, value_parser = clap::value_parser!(u8).range(1..=2))]
     threads: Option<u8>,
-    /// Wall-clock budget of each solve [ms] (overrides the solver file's max_time_s): a
+    /// Wall-clock budget of each solve in milliseconds (overrides the solver file's max_time_s): a
     /// solve that spends it ends `time_limit` with its best iterate.
     #[arg(long, value_name = "B", value_parser = budget_ms_arg)]
     budget_ms: Option<f64>,

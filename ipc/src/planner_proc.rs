@@ -312,6 +312,7 @@ impl PlannerLoop {
                 "--max-solve-s must be > 0 and --lane-margin-m >= 0".into(),
             ));
         }
+        crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
         let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         if 2.0 * args.lane_margin_m >= sc.road.e_max() - sc.road.e_min() {

@@ -54,6 +54,22 @@ fn name(prefix: &str, topic: &str) -> Result<ServiceName, IpcError> {
     ServiceName::new(&full).map_err(ipc_err("service name"))
 }
 
+/// Checks that `prefix` makes valid iceoryx2 service names for both topics, naming the
+/// option and the reason when it does not (say, a prefix past the name length limit).
+pub fn check_prefix(prefix: &str) -> Result<(), String> {
+    for topic in ["vehicle_state", "trajectory"] {
+        let full = format!("{prefix}/{topic}");
+        if let Err(e) = ServiceName::new(&full) {
+            return Err(format!(
+                "--service-prefix {prefix:?} ({} bytes): \"{prefix}/{topic}\" is not a valid \
+                 iceoryx2 service name ({e:?})",
+                prefix.len()
+            ));
+        }
+    }
+    Ok(())
+}
+
 impl Services {
     /// Creates the node and opens (or creates) both services under `prefix`.
     pub fn open(prefix: &str, node_name: &str) -> Result<Self, IpcError> {
@@ -243,4 +259,18 @@ pub fn publish_state(
         .map_err(ipc_err("send vehicle state"))?;
     notifier.notify().map_err(ipc_err("notify vehicle state"))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_prefix;
+
+    #[test]
+    fn a_service_prefix_past_the_name_limit_is_refused_naming_the_option() {
+        assert!(check_prefix("trajopt_test").is_ok());
+        let long = "x".repeat(300);
+        let e = check_prefix(&long).unwrap_err();
+        assert!(e.starts_with("--service-prefix"), "{e}");
+        assert!(e.contains("300 bytes"), "{e}");
+    }
 }

@@ -171,7 +171,9 @@ fn check_args(args: &TrackerArgs) -> Result<(), TrackerProcError> {
         Some((name, value, _, expected)) => Err(TrackerProcError::Setup(format!(
             "{name} = {value}: {expected}"
         ))),
-        None => Ok(()),
+        None => {
+            crate::services::check_prefix(&args.service_prefix).map_err(TrackerProcError::Setup)
+        }
     }
 }
 

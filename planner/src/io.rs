@@ -88,6 +88,55 @@ pub fn is_closed(e: &std::io::Error) -> bool {
     e.kind() == std::io::ErrorKind::BrokenPipe
 }
 
+/// Writes `args` to standard output for a command-line program (the [`out!`](crate::out)
+/// and [`outln!`](crate::outln) macros): a reader that went away (a closed pipe, as with
+/// `trajopt ... | head`) ends the program quietly with success, like the standard Unix
+/// tools; any other failure (a full disk) is returned as an error naming the stream and the
+/// operating system's reason, for the program to report with exit code 2.
+pub fn print_stdout(args: std::fmt::Arguments) -> Result<(), String> {
+    match write_stdout(args) {
+        Ok(()) => Ok(()),
+        Err(e) if is_closed(&e) => std::process::exit(0),
+        Err(e) => Err(format!("standard output: cannot write: {e}")),
+    }
+}
+
+/// `print!` through [`io::print_stdout`](crate::io::print_stdout); returns its error from
+/// the enclosing function (which returns `Result<_, String>`).
+#[macro_export]
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::io::print_stdout(format_args!($($arg)*))?
+    };
+}
+
+/// `println!` through [`io::print_stdout`](crate::io::print_stdout); returns its error from
+/// the enclosing function (which returns `Result<_, String>`).
+#[macro_export]
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::io::print_stdout(format_args!("{}\n", format_args!($($arg)*)))?
+    };
+}
+
+/// `eprint!` through [`io::write_stderr`](crate::io::write_stderr): a failing stderr is
+/// ignored, not a panic.
+#[macro_export]
+macro_rules! err {
+    ($($arg:tt)*) => {
+        $crate::io::write_stderr(format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` through [`io::write_stderr`](crate::io::write_stderr): a failing stderr is
+/// ignored, not a panic.
+#[macro_export]
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::io::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -77,6 +77,7 @@ fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
                 .into(),
         ));
     }
+    ipc::services::check_prefix(&cli.service_prefix).map_err(Error::Setup)?;
     let sc = Scenario::load(&cli.scenario, &cli.vehicle, &cli.solver)
         .map_err(|e| Error::Setup(e.to_string()))?;
     let good = Plant::cruise(sc.spec.vehicle, 15.0).x;

@@ -15,49 +15,9 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use plan_record::Recording;
 use planner::config::paths::resolve_path;
+use planner::{err, errln, out, outln};
 use replay::oval::{record_oval, OvalOptions};
 use replay::run::{run, RunOptions};
-
-/// Writes `args` to stdout (the [`out!`] and [`outln!`] macros): a closed pipe (`replay
-/// ... | head`) ends the program quietly with success, like the standard Unix tools; any
-/// other failure (a full disk) is returned as an error, reported with exit code 2.
-fn print(args: std::fmt::Arguments) -> Result<(), String> {
-    match planner::io::write_stdout(args) {
-        Ok(()) => Ok(()),
-        Err(e) if planner::io::is_closed(&e) => std::process::exit(0),
-        Err(e) => Err(format!("standard output: cannot write: {e}")),
-    }
-}
-
-/// `print!` to stdout through [`print`]; returns its error from the enclosing function.
-macro_rules! out {
-    ($($arg:tt)*) => {
-        print(format_args!($($arg)*))?
-    };
-}
-
-/// `eprint!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
-/// panic.
-macro_rules! err {
-    ($($arg:tt)*) => {
-        planner::io::write_stderr(format_args!($($arg)*))
-    };
-}
-
-/// `eprintln!` through [`planner::io::write_stderr`]: a failing stderr is ignored, not a
-/// panic.
-macro_rules! errln {
-    ($($arg:tt)*) => {
-        planner::io::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
-    };
-}
-
-/// `println!` to stdout through [`print`]; returns its error from the enclosing function.
-macro_rules! outln {
-    ($($arg:tt)*) => {
-        print(format_args!("{}\n", format_args!($($arg)*)))?
-    };
-}
 
 #[derive(Parser, Debug)]
 #[command(name = "replay", version, about = "Replay planner recordings (MCAP)")]

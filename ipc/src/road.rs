@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use planner::config::{load_scenario, load_solver, load_vehicle, ConfigError};
+use planner::config::{load_scenario_for_horizon, load_solver, load_vehicle, ConfigError};
 use planner::ip::Settings;
 use planner::ocp::OcpSpec;
 use planner::track::piecewise_constant;
@@ -156,7 +156,7 @@ impl Scenario {
     /// (`[geometry] lap_length_m`, `[track] kappa_pieces`) with N = 100.
     pub fn load(scenario: &Path, vehicle: &Path, solver: &Path) -> Result<Self, RoadError> {
         let vehicle = load_vehicle(vehicle)?;
-        let spec = load_scenario(scenario, None, vehicle)?;
+        let spec = load_scenario_for_horizon(scenario, None, vehicle, planner::HORIZON)?;
         let settings = load_solver(solver)?;
         let bytes = std::fs::read(scenario).map_err(|e| RoadError::Read {
             path: scenario.to_path_buf(),

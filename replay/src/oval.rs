@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use plan_record::{now_ns, Record, RecordStats, Recorder};
-use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::config::{load_scenario_for_horizon, load_solver, load_vehicle};
 use planner::guess::GuessKind;
 use planner::model::{ix, NX};
 use planner::ocp::{InitialState, OcpSpec};
@@ -155,7 +155,7 @@ pub fn record_oval(
         ));
     }
     let vehicle = load_vehicle(&opts.vehicle)?;
-    let base = load_scenario(&opts.scenario, None, vehicle)?;
+    let base = load_scenario_for_horizon(&opts.scenario, None, vehicle, planner::HORIZON)?;
     if base.n_intervals != N {
         return Err(OvalError::Options(format!(
             "scenario has n_intervals = {}, this build solves N = {N}",

@@ -7,7 +7,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::StudyError;
-use crate::config::load_scenario;
+use crate::config::load_scenario_for_horizon;
 use crate::guess::GuessKind;
 use crate::ip::{BarrierRule, Settings};
 use crate::model::VehicleParams;
@@ -49,7 +49,7 @@ pub fn run(
     if repeat == 0 {
         return Err(StudyError::Repeat);
     }
-    let mut spec = load_scenario(scenario, select, *vehicle)?;
+    let mut spec = load_scenario_for_horizon(scenario, select, *vehicle, crate::HORIZON)?;
     spec.steering_slew_weight = steering_slew_weight;
     let mut planner = Planner::<HORIZON>::new(spec, settings)?;
     let mut out = Vec::with_capacity(BarrierRule::ALL.len());

@@ -10,7 +10,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::{optimality_error, StudyError};
-use crate::config::{data_root_of, list_selections, load_scenario};
+use crate::config::{data_root_of, list_selections, load_scenario_for_horizon};
 use crate::guess::GuessKind;
 use crate::ip::{Settings, StepKind};
 use crate::model::VehicleParams;
@@ -126,7 +126,7 @@ pub fn run(
     let reference = load_reference(&data_root_of(scenario).join(REFERENCE_CSV)).ok();
     let mut runs = Vec::with_capacity(2 * names.len());
     for name in &names {
-        let mut spec = load_scenario(scenario, Some(name), *vehicle)?;
+        let mut spec = load_scenario_for_horizon(scenario, Some(name), *vehicle, crate::HORIZON)?;
         spec.steering_slew_weight = steering_slew_weight;
         let mut planner = Planner::<HORIZON>::new(spec, settings)?;
         let refrow = reference

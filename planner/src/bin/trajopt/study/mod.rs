@@ -8,7 +8,7 @@ mod segments;
 mod stiffness;
 
 use clap::Subcommand;
-use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::config::{load_scenario_for_horizon, load_solver, load_vehicle};
 use planner::ip::Settings;
 use planner::ocp::OcpSpec;
 use planner::HORIZON;
@@ -43,7 +43,8 @@ pub fn run(command: StudyCommand) -> Result<(), String> {
 fn study_inputs(f: &StudyFiles) -> Result<(OcpSpec, Settings), String> {
     let vehicle = load_vehicle(&resolve(&f.vehicle)).map_err(|e| e.to_string())?;
     let mut spec =
-        load_scenario(&resolve(&f.scenario), None, vehicle).map_err(|e| e.to_string())?;
+        load_scenario_for_horizon(&resolve(&f.scenario), None, vehicle, planner::HORIZON)
+            .map_err(|e| e.to_string())?;
     spec.steering_slew_weight = f.objective.slew();
     if spec.n_intervals != HORIZON {
         return Err(format!(

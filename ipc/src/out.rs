@@ -7,12 +7,13 @@
 //! treats a closed pipe as a quiet end (nobody is left to read it).
 
 use std::fmt::{Arguments, Display};
-use std::io::{self, ErrorKind, Write};
+use std::io;
+
+use planner::io::{is_closed, write_stderr, write_stdout};
 
 /// Writes one line to stderr, ignoring a failed write.
 pub fn log_line(args: Arguments<'_>) {
-    let mut err = io::stderr().lock();
-    let _ = err.write_fmt(args).and_then(|()| err.write_all(b"\n"));
+    write_stderr(format_args!("{args}\n"));
 }
 
 /// `eprintln!` through [`log_line`]: formats one stderr line and never panics.
@@ -26,9 +27,8 @@ macro_rules! elog {
 /// Writes `line` and a newline to stdout and flushes it. A closed stdout (`BrokenPipe`)
 /// is a quiet end and returns `Ok`; other write errors are returned.
 pub fn print_line(line: &dyn Display) -> io::Result<()> {
-    let mut out = io::stdout().lock();
-    match writeln!(out, "{line}").and_then(|()| out.flush()) {
-        Err(e) if e.kind() == ErrorKind::BrokenPipe => Ok(()),
+    match write_stdout(format_args!("{line}\n")) {
+        Err(e) if is_closed(&e) => Ok(()),
         r => r,
     }
 }

@@ -75,6 +75,9 @@ def parse_args(argv=None):
     ap.add_argument("--out", default="config/reference", help="folder of lap_times.toml and the speed CSVs")
     ap.add_argument("--no-write", action="store_true", help="print the results only")
     ap.add_argument("--check", action="store_true", help="solve a coarse oval lap and verify it (seconds)")
+    ap.add_argument("--compare-segments", action="store_true",
+                    help="no solve: the Austin lap's time over each 250 m segment of scenarios/segments.toml "
+                         "next to the segment's minimum time (config/reference/segments_ie_ipopt.csv)")
     return ap.parse_args(argv)
 
 
@@ -470,8 +473,32 @@ def check(p):
     print("check passed")
 
 
+def compare_segments(args):
+    """The written Austin lap profile over each segment window, next to the segment's own
+    minimum time (free entry and exit speed, so at most the lap window's time up to the
+    transcription and slew differences)."""
+    segs = load_toml(os.path.join(args.root, "scenarios", "segments.toml"))["segments"]
+    with open(os.path.join(args.out, "segments_ie_ipopt.csv"), newline="") as f:
+        ref = {r["segment"]: float(r["t_N"]) for r in csv.DictReader(f)}
+    with open(os.path.join(args.out, "Austin_lap_speed.csv"), newline="") as f:
+        lap = np.array([[float(r["s_m"]), float(r["v_mps"]), float(r["t_s"])] for r in csv.DictReader(f)])
+    print(f"{'segment':8} {'s0 [m]':>7} {'lap window [s]':>15} {'segment t_N [s]':>16} {'diff':>7} "
+          f"{'V in/out lap [m/s]':>19}")
+    for seg in segs:
+        if seg.get("track", "Austin") != "Austin":
+            continue
+        s0, s1 = seg["s_start_m"], seg["s_start_m"] + seg["length_m"]
+        t0, t1 = np.interp([s0, s1], lap[:, 0], lap[:, 2])
+        v0, v1 = np.interp([s0, s1], lap[:, 0], lap[:, 1])
+        tn = ref.get(seg["name"], float("nan"))
+        print(f"{seg['name']:8} {s0:7.0f} {t1 - t0:15.4f} {tn:16.4f} {(t1 - t0) / tn - 1:+7.2%} {v0:9.2f} {v1:9.2f}")
+
+
 def main():
     args = parse_args()
+    if args.compare_segments:
+        compare_segments(args)
+        return
     p = cc.Vehicle(args.vehicle)
     if args.check:
         check(p)

@@ -475,23 +475,31 @@ def check(p):
 
 def compare_segments(args):
     """The written Austin lap profile over each segment window, next to the segment's own
-    minimum time (free entry and exit speed, so at most the lap window's time up to the
-    transcription and slew differences)."""
+    minimum time (free entry and exit speed, dpsi_0 = 0). Where the lap enters a window
+    with dpsi ~ 0 it is a feasible point of the segment problem (up to the transcription
+    and the slew term), so its window time can only be longer; where it enters at an angle
+    it is outside the segment's feasible set. dpsi at the entry is recovered from the
+    written e(s): de/ds = tan(dpsi) (1 - kappa e)."""
     segs = load_toml(os.path.join(args.root, "scenarios", "segments.toml"))["segments"]
     with open(os.path.join(args.out, "segments_ie_ipopt.csv"), newline="") as f:
         ref = {r["segment"]: float(r["t_N"]) for r in csv.DictReader(f)}
     with open(os.path.join(args.out, "Austin_lap_speed.csv"), newline="") as f:
-        lap = np.array([[float(r["s_m"]), float(r["v_mps"]), float(r["t_s"])] for r in csv.DictReader(f)])
+        lap = np.array([[float(r["s_m"]), float(r["v_mps"]), float(r["e_m"]), float(r["t_s"])]
+                        for r in csv.DictReader(f)])
+    road = track_road(args.root, "Austin", 0.0)
     print(f"{'segment':8} {'s0 [m]':>7} {'lap window [s]':>15} {'segment t_N [s]':>16} {'diff':>7} "
-          f"{'V in/out lap [m/s]':>19}")
+          f"{'V in':>6} {'V out':>6} {'dpsi in':>8}")
     for seg in segs:
         if seg.get("track", "Austin") != "Austin":
             continue
         s0, s1 = seg["s_start_m"], seg["s_start_m"] + seg["length_m"]
-        t0, t1 = np.interp([s0, s1], lap[:, 0], lap[:, 2])
+        t0, t1 = np.interp([s0, s1], lap[:, 0], lap[:, 3])
         v0, v1 = np.interp([s0, s1], lap[:, 0], lap[:, 1])
+        e0, de = np.interp(s0, lap[:, 0], lap[:, 2]), np.interp(s0, lap[:, 0], np.gradient(lap[:, 2], lap[:, 0]))
+        dpsi0 = math.atan(de / (1 - road.kappa_at(np.array([s0]))[0] * e0))
         tn = ref.get(seg["name"], float("nan"))
-        print(f"{seg['name']:8} {s0:7.0f} {t1 - t0:15.4f} {tn:16.4f} {(t1 - t0) / tn - 1:+7.2%} {v0:9.2f} {v1:9.2f}")
+        print(f"{seg['name']:8} {s0:7.0f} {t1 - t0:15.4f} {tn:16.4f} {(t1 - t0) / tn - 1:+7.2%} "
+              f"{v0:6.2f} {v1:6.2f} {dpsi0:+8.3f}")
 
 
 def main():

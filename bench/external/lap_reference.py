@@ -75,6 +75,10 @@ def parse_args(argv=None):
     ap.add_argument("--out", default="config/reference", help="folder of lap_times.toml and the speed CSVs")
     ap.add_argument("--no-write", action="store_true", help="print the results only")
     ap.add_argument("--check", action="store_true", help="solve a coarse oval lap and verify it (seconds)")
+    ap.add_argument("--segments", default="",
+                    help="no lap: solve these segments of scenarios/segments.toml as the planner's open "
+                         "window (free initial state, dpsi_0 = 0), next to segments_ie_ipopt.csv")
+    ap.add_argument("--free-heading", action="store_true", help="with --segments: dpsi_0 free")
     ap.add_argument("--compare-segments", action="store_true",
                     help="no solve: the Austin lap's time over each 250 m segment of scenarios/segments.toml "
                          "next to the segment's minimum time (config/reference/segments_ie_ipopt.csv)")
@@ -222,8 +226,9 @@ class LapNlp:
     """The periodic lap as one nlpsol problem: w = [vec(X); vec(U)], X of shape (NX, N+1)
     (column N is the lap's end, equal to column 0 but for s and t), U of shape (NU, N)."""
 
-    def __init__(self, p, road, n, integrator, slew):
+    def __init__(self, p, road, n, integrator, slew, periodic=True, fix_dpsi0=False):
         self.p, self.road, self.n = p, road, n
+        self.periodic, self.fix_dpsi0 = periodic, fix_dpsi0
         self.ds = road.lap / n
         self.s_nodes = self.ds * np.arange(n + 1)
         self.kappa = road.kappa_at(self.s_nodes)
@@ -238,23 +243,29 @@ class LapNlp:
         sat = sat_fn.map(n)(X[:, :n], U)
         fric0 = fric_fn.map(n)(X[:, :n], U)
         fric1 = fric_fn.map(n)(X[:, 1:], U)
-        u_prev = ca.horzcat(U[:, n - 1], U[:, : n - 1])
         t_row = X[T, :]
-        dt = ca.horzcat(t_row[n] - t_row[n - 1], t_row[1:n] - t_row[: n - 1]) * X_NOMINAL[T]
-        du = [(U[j, :] - u_prev[j, :]) * (U_NOMINAL[j] / p.rates[j]) for j in range(NU)]
-        periodic = [i for i in range(NX) if i not in (S, T)]
+        if periodic:  # every interval, u_{N-1} -> u_0 over t_N - t_{N-1}
+            u_cur, u_prev = U, ca.horzcat(U[:, n - 1], U[:, : n - 1])
+            dt = ca.horzcat(t_row[n] - t_row[n - 1], t_row[1:n] - t_row[: n - 1]) * X_NOMINAL[T]
+        else:  # an open window, as the planner: k = 1..N-1
+            u_cur, u_prev = U[:, 1:], U[:, : n - 1]
+            dt = (t_row[1:n] - t_row[: n - 1]) * X_NOMINAL[T]
+        m = u_cur.shape[1]
+        du = [(u_cur[j, :] - u_prev[j, :]) * (U_NOMINAL[j] / p.rates[j]) for j in range(NU)]
+        periodic = [i for i in range(NX) if i not in (S, T)]  # rows of the periodic states
         self.groups = []  # (name, expression, lower, upper)
         sat_hi = p.eps_sat / cc.SATURATION_SCALE_FREE if road.saturation else ca.inf
         self.add("defect", ca.vec(defects), 0.0, 0.0)
         self.add("saturation", ca.vec(sat), -ca.inf, sat_hi)
         self.add("friction", ca.vertcat(ca.vec(fric0), ca.vec(fric1)), 0.0, ca.inf)
         for j in range(NU):
-            self.add(f"rate{j}", ca.vertcat((du[j] - dt).T, (du[j] + dt).T), ca.vertcat(-ca.inf * ca.DM.ones(n), ca.DM.zeros(n)),
-                     ca.vertcat(ca.DM.zeros(n), ca.inf * ca.DM.ones(n)))
-        self.add("periodic", X[periodic, n] - X[periodic, 0], 0.0, 0.0)
+            self.add(f"rate{j}", ca.vertcat((du[j] - dt).T, (du[j] + dt).T), ca.vertcat(-ca.inf * ca.DM.ones(m), ca.DM.zeros(m)),
+                     ca.vertcat(ca.DM.zeros(m), ca.inf * ca.DM.ones(m)))
+        if self.periodic:
+            self.add("periodic", X[periodic, n] - X[periodic, 0], 0.0, 0.0)
         slew_w = slew * (U_NOMINAL[0] / p.rates[0]) ** 2 / cc.OBJECTIVE_SCALE
         self.slew_expr = ca.sumsqr(du[0] * p.rates[0] / U_NOMINAL[0]) * slew_w * cc.OBJECTIVE_SCALE  # [s]
-        obj = X[T, n] * X_NOMINAL[T] / cc.OBJECTIVE_SCALE + slew_w * ca.sumsqr(U[0, :] - u_prev[0, :])
+        obj = X[T, n] * X_NOMINAL[T] / cc.OBJECTIVE_SCALE + slew_w * ca.sumsqr(u_cur[0, :] - u_prev[0, :])
         self.w = ca.vertcat(ca.vec(X), ca.vec(U))
         self.g = ca.vertcat(*[grp[1] for grp in self.groups])
         self.obj = obj
@@ -273,6 +284,8 @@ class LapNlp:
         lx[V], ux[V] = self.road.v_min, self.road.v_max
         lx[VWR] = p.v_wr_min
         lx[S, 0] = ux[S, 0] = lx[T, 0] = ux[T, 0] = 0.0
+        if self.fix_dpsi0:
+            lx[DPSI, 0] = ux[DPSI, 0] = 0.0
         xn = np.array(X_NOMINAL)[:, None]
         lu = np.repeat(np.array(p.u_lo)[:, None], n, axis=1) / np.array(U_NOMINAL)[:, None]
         uu = np.repeat(np.array(p.u_hi)[:, None], n, axis=1) / np.array(U_NOMINAL)[:, None]
@@ -314,19 +327,34 @@ class LapNlp:
         }
 
 
+def segment_road(root, name, margin):
+    """A segment of scenarios/segments.toml as an open window of its track."""
+    segs = load_toml(os.path.join(root, "scenarios", "segments.toml")).get("segments", [])
+    seg = next((g for g in segs if g.get("name") == name), None)
+    if seg is None:
+        sys.exit(f"{root}/scenarios/segments.toml: no segment named {name!r}")
+    base = track_road(root, seg["track"], margin)
+    s0 = float(seg["s_start_m"])
+    road = Road(name, float(seg["length_m"]), lambda s: base.kappa_at(s0 + s), lambda s: base.e_at(s0 + s),
+                {"v_min_mps": base.v_min, "v_max_mps": base.v_max, "enforce_tire_saturation": base.saturation,
+                 "steering_slew_weight": base.slew})
+    return road
+
+
 def make_road(args, name):
     if name == "oval":
         return oval_road(args.root, args.edge_margin_m)
     return track_road(args.root, name, args.edge_margin_m)
 
 
-def solve_lap(args, p, name):
-    road = make_road(args, name)
+def solve_lap(args, p, name, window=False):
+    """The periodic lap of a track, or (window) the open segment problem of the planner."""
+    road = segment_road(args.root, name, args.edge_margin_m) if window else make_road(args, name)
     if args.steering_slew_weight is not None:
         road.slew = args.steering_slew_weight
     n = max(4, round(road.lap / args.spacing))
     t0 = time.perf_counter()
-    nlp = LapNlp(p, road, n, args.integrator, road.slew)
+    nlp = LapNlp(p, road, n, args.integrator, road.slew, periodic=not window, fix_dpsi0=window and not args.free_heading)
     x0, u0 = initial_guess(p, road, n, nlp.ds, nlp.kappa)
     build_s = time.perf_counter() - t0
     res = nlp.solve(x0, u0, args.max_iter, args.print_level)
@@ -336,7 +364,7 @@ def solve_lap(args, p, name):
         "name": name, "road": road, "n": n, "ds": nlp.ds, "build_s": build_s,
         "lap_time_s": float(x[T, n]), "guess_lap_time_s": float(x0[T, n] * X_NOMINAL[T]),
         "max_abs_beta_rad": float(np.max(np.abs(x[BETA]))),
-        "periodic_residual": float(np.max(np.abs(x[periodic, n] - x[periodic, 0]))),
+        "periodic_residual": float(np.max(np.abs(x[periodic, n] - x[periodic, 0]))) if not window else float("nan"),
         "v_min_mps": float(np.min(x[V])), "v_max_mps": float(np.max(x[V])),
         "lane_slack_m": float(np.min(np.minimum(x[E] - nlp.e_lo, nlp.e_hi - x[E]))),
         "s": nlp.s_nodes,
@@ -502,6 +530,18 @@ def compare_segments(args):
               f"{v0:6.2f} {v1:6.2f} {dpsi0:+8.3f}")
 
 
+def solve_segments(args, p):
+    """Open-window solves of segments, printed next to the reference minimum."""
+    with open(os.path.join(args.out, "segments_ie_ipopt.csv"), newline="") as f:
+        ref = {r["segment"]: float(r["t_N"]) for r in csv.DictReader(f)}
+    for name in [t.strip() for t in args.segments.split(",") if t.strip()]:
+        res = solve_lap(args, p, name, window=True)
+        report(res)
+        tn = ref.get(name, float("nan"))
+        print(f"{name}: t_N {res['lap_time_s']:.4f} s, dpsi_0 {res['x'][DPSI, 0]:+.3f} rad; "
+              f"segments_ie_ipopt.csv {tn:.4f} s ({res['lap_time_s'] / tn - 1:+.2%})", flush=True)
+
+
 def main():
     args = parse_args()
     if args.compare_segments:
@@ -510,6 +550,9 @@ def main():
     p = cc.Vehicle(args.vehicle)
     if args.check:
         check(p)
+        return
+    if args.segments:
+        solve_segments(args, p)
         return
     for name in [t.strip() for t in args.tracks.split(",") if t.strip()]:
         res = solve_lap(args, p, name)

@@ -34,8 +34,13 @@ bench/external/requirements.txt. Run from the repository root:
     .venv/bin/python bench/external/lap_reference.py --tracks Austin,Budapest,Montreal,Silverstone,Spa,oval
     .venv/bin/python bench/external/lap_reference.py --tracks Montreal --spacing 1.25 --no-write
     .venv/bin/python bench/external/lap_reference.py --check
+    .venv/bin/python bench/external/lap_reference.py --compare-segments
+    .venv/bin/python bench/external/lap_reference.py --segments S02,S10 --integrator ie --steering-slew-weight 0
 It merges one [[tracks]] entry per (track, edge margin) into config/reference/lap_times.toml
-and writes config/reference/<name>_lap_speed.csv (s, V, e, t every ~5 m).
+and writes config/reference/<name>_lap_speed.csv (s, V, e, t every ~5 m). `--segments`
+solves the planner's open 250 m windows with the same code (against
+config/reference/segments_ie_ipopt.csv); `--compare-segments` sets the written Austin lap
+beside them. Method, checks and results: docs/lap-reference.md.
 """
 import argparse
 import csv

@@ -229,7 +229,9 @@ def stage_functions(p, integrator):
 
 class LapNlp:
     """The periodic lap as one nlpsol problem: w = [vec(X); vec(U)], X of shape (NX, N+1)
-    (column N is the lap's end, equal to column 0 but for s and t), U of shape (NU, N)."""
+    (column N is the lap's end, equal to column 0 but for s and t), U of shape (NU, N).
+    `periodic=False` gives the planner's open window instead (no x_N = x_0 rows, rate and
+    slew rows for k = 1..N-1); `fix_dpsi0` adds its dpsi_0 = 0."""
 
     def __init__(self, p, road, n, integrator, slew, periodic=True, fix_dpsi0=False):
         self.p, self.road, self.n = p, road, n
@@ -257,7 +259,7 @@ class LapNlp:
             dt = (t_row[1:n] - t_row[: n - 1]) * X_NOMINAL[T]
         m = u_cur.shape[1]
         du = [(u_cur[j, :] - u_prev[j, :]) * (U_NOMINAL[j] / p.rates[j]) for j in range(NU)]
-        periodic = [i for i in range(NX) if i not in (S, T)]  # rows of the periodic states
+        cyclic = [i for i in range(NX) if i not in (S, T)]  # the states with x_N = x_0
         self.groups = []  # (name, expression, lower, upper)
         sat_hi = p.eps_sat / cc.SATURATION_SCALE_FREE if road.saturation else ca.inf
         self.add("defect", ca.vec(defects), 0.0, 0.0)
@@ -267,7 +269,7 @@ class LapNlp:
             self.add(f"rate{j}", ca.vertcat((du[j] - dt).T, (du[j] + dt).T), ca.vertcat(-ca.inf * ca.DM.ones(m), ca.DM.zeros(m)),
                      ca.vertcat(ca.DM.zeros(m), ca.inf * ca.DM.ones(m)))
         if self.periodic:
-            self.add("periodic", X[periodic, n] - X[periodic, 0], 0.0, 0.0)
+            self.add("periodic", X[cyclic, n] - X[cyclic, 0], 0.0, 0.0)
         slew_w = slew * (U_NOMINAL[0] / p.rates[0]) ** 2 / cc.OBJECTIVE_SCALE
         self.slew_expr = ca.sumsqr(du[0] * p.rates[0] / U_NOMINAL[0]) * slew_w * cc.OBJECTIVE_SCALE  # [s]
         obj = X[T, n] * X_NOMINAL[T] / cc.OBJECTIVE_SCALE + slew_w * ca.sumsqr(u_cur[0, :] - u_prev[0, :])

@@ -3,13 +3,18 @@
 //! [`msg`] holds the `#[repr(C)]` zero-copy messages; [`services`] opens the iceoryx2
 //! services both processes share; [`road`] samples the closed road ahead; [`plant`]
 //! simulates the full vehicle model in time; [`tracker`] is the feed-forward + feedback
-//! controller; [`planner_proc`] and [`tracker_proc`] are the two process loops;
+//! controller of the simple feedback kind, [`controller`] the feed-forward plus LQR one
+//! ([`lqr`]: its gains); [`mismatch`] makes the plant differ from
+//! the planner's model; [`planner_proc`] and [`tracker_proc`] are the two process loops;
 //! [`stats`] collects latencies; [`out`] writes the standard streams without panicking
 //! on a closed pipe.
 #![deny(missing_docs)]
 #![allow(clippy::needless_range_loop)]
 
 pub mod clock;
+pub mod controller;
+pub mod lqr;
+pub mod mismatch;
 pub mod msg;
 pub mod out;
 pub mod planner_proc;

@@ -1,5 +1,11 @@
 //! Time-domain simulation of the full single-track model (paper eq. 1) with fixed-step RK4;
-//! the curvature is the road's k_ref at the current s of every stage.
+//! the curvature is the road's k_ref at the current s of every stage. [`actuator`] adds
+//! the steering lag and transport delay, [`noise`] the measurement noise, [`car`] puts
+//! plant, actuators and sensors together as the tracker drives them.
+
+pub mod actuator;
+pub mod car;
+pub mod noise;
 
 use planner::model::{iu, ix, time_derivatives, VehicleParams, NU, NX};
 

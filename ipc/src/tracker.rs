@@ -187,14 +187,20 @@ pub struct Errors {
     pub beta: f64,
 }
 
-/// Control for the plant state x following `r`: feed-forward + feedback. Allocates nothing.
-pub fn track(p: &VehicleParams, g: &Gains, x: &[f64; NX], r: &Reference) -> ([f64; NU], Errors) {
-    let err = Errors {
+/// Tracking errors of state x against the reference `r`. Allocates nothing.
+pub fn errors(x: &[f64; NX], r: &Reference) -> Errors {
+    Errors {
         e: x[ix::E] - r.x[ix::E],
         dpsi: wrap(x[ix::DPSI] - r.x[ix::DPSI]),
         v: x[ix::V] - r.x[ix::V],
         beta: x[ix::BETA] - r.x[ix::BETA],
-    };
+    }
+}
+
+/// Control for the plant state x following `r`: feed-forward + fixed-gain feedback.
+/// Allocates nothing.
+pub fn track(p: &VehicleParams, g: &Gains, x: &[f64; NX], r: &Reference) -> ([f64; NU], Errors) {
+    let err = errors(x, r);
     let mut u = r.u;
     u[iu::DELTA] -= g.k_e * err.e + g.k_dpsi * err.dpsi + g.k_r * (x[ix::R] - r.x[ix::R]);
     // Speed feedback as a force at the rear wheel (drive or rear brake).

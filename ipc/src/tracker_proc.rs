@@ -15,16 +15,18 @@ use iceoryx2::port::subscriber::Subscriber;
 use planner::model::ix;
 
 use crate::clock::monotonic_ns;
+use crate::controller::Controller;
 use crate::elog;
+use crate::mismatch::Mismatch;
 use crate::msg::{
     new_run_id, RoadId, RunId, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED,
 };
-use crate::plant::Plant;
+use crate::plant::car::Car;
 use crate::road::Scenario;
 use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
-use crate::tracker::{brake_to_stop, reference, track, ForeignPlans, Gains, Ownership};
+use crate::tracker::{brake_to_stop, reference, ForeignPlans, Gains, Ownership};
 
 /// Command-line options of `tracker_proc`.
 // clap prints these doc comments as the --help text, which would show the escapes of
@@ -35,9 +37,18 @@ pub struct TrackerArgs {
     /// Scenario file (a closed road).
     #[arg(long, default_value = "config/scenarios/oval.toml")]
     pub scenario: PathBuf,
-    /// Vehicle file.
+    /// Vehicle file (the planner's model; the controller is designed on it).
     #[arg(long, default_value = "config/vehicles/lc500.toml")]
     pub vehicle: PathBuf,
+    /// Vehicle file of the simulated car (default: --vehicle); never shown to the planner.
+    #[arg(long)]
+    pub plant_vehicle: Option<PathBuf>,
+    /// Plant mismatch: none, default (config/mismatch/default.toml) or a TOML file.
+    #[arg(long, default_value = "none")]
+    pub mismatch: String,
+    /// Seed of the measurement noise.
+    #[arg(long, default_value_t = 1)]
+    pub noise_seed: u64,
     /// Solver settings file (read for the road id only).
     #[arg(long, default_value = "config/solver.toml")]
     pub solver: PathBuf,
@@ -275,7 +286,11 @@ struct TrackerLoop {
     substeps: usize,
     plant_dt: f64,
     publish_dt: f64,
-    plant: Plant,
+    car: Car,
+    /// The last measured state (what the feedback used and what is published).
+    measured: [f64; planner::model::NX],
+    controller: Controller,
+    mismatch: Mismatch,
     plan: Box<Trajectory>,
     have_plan: bool,
     inbox: Inbox,
@@ -305,7 +320,27 @@ impl TrackerLoop {
         let plant_dt = args.control_dt_s / substeps as f64;
         let per_publish = (args.publish_dt_s / args.control_dt_s).round().max(1.0) as usize;
         let publish_dt = per_publish as f64 * args.control_dt_s;
-        let plant = Plant::cruise(sc.spec.vehicle, args.v0);
+        let mismatch = Mismatch::from_arg(&args.mismatch)
+            .map_err(|e| TrackerProcError::Setup(e.to_string()))?;
+        let plant_params = match &args.plant_vehicle {
+            Some(path) => planner::config::load_vehicle(path)
+                .map_err(|e| TrackerProcError::Setup(e.to_string()))?,
+            None => sc.spec.vehicle,
+        };
+        let mut car = Car::new(
+            &plant_params,
+            &mismatch,
+            args.v0,
+            args.control_dt_s,
+            args.noise_seed,
+        );
+        let measured = car.measure();
+        // The tracker knows its actuators' latency (not the vehicle's mismatch): the
+        // feed-forward looks ahead by the transport delay plus the steering lag.
+        let preview =
+            car.delay_steps() as f64 * args.control_dt_s + mismatch.actuator.steering_lag_s;
+        let controller = Controller::new(&sc.spec.vehicle, args.control_dt_s, preview)
+            .map_err(TrackerProcError::Setup)?;
         Ok(Self {
             sc,
             gains: Gains::default(),
@@ -313,7 +348,10 @@ impl TrackerLoop {
             substeps,
             plant_dt,
             publish_dt,
-            plant,
+            car,
+            measured,
+            controller,
+            mismatch,
             plan: Box::new(Trajectory {
                 ds: 1.0,
                 ..Trajectory::zeroed()
@@ -335,7 +373,7 @@ impl TrackerLoop {
     /// Takes every queued plan: a valid own plan becomes the active one (a non-converged
     /// one only when the active plan no longer covers the car or is stale).
     fn receive(&mut self, ports: &Ports) -> Result<(), IpcError> {
-        let plant = &self.plant;
+        let plant = &self.car.plant;
         while let Some(sample) = ports.sub.receive().map_err(ipc_err("receive trajectory"))? {
             let m: &Trajectory = sample.payload();
             if !self
@@ -380,7 +418,7 @@ impl TrackerLoop {
         let Some(t0) = self.sim_start else { return };
         let params = self.sc.spec.vehicle;
         let road = &self.sc.road;
-        let plant = &mut self.plant;
+        let car = &mut self.car;
         let stats = &mut self.stats;
         if !self.stale
             && self.have_plan
@@ -388,8 +426,8 @@ impl TrackerLoop {
         {
             self.stale = true;
             self.ever_stale = true;
-            self.stale_at_s = plant.x[ix::T];
-            self.e_hold = plant.x[ix::E];
+            self.stale_at_s = car.plant.x[ix::T];
+            self.e_hold = self.measured[ix::E];
             elog!(
                 "tracker: plan {} is stale (no new plan for {:.2} s); braking to a stop",
                 self.plan.seq,
@@ -399,17 +437,19 @@ impl TrackerLoop {
         let target_t = now.duration_since(t0).as_secs_f64() * args.time_scale;
         let max_steps = (1.0 / args.control_dt_s) as usize;
         let mut steps = 0;
-        while plant.x[ix::T] + 0.5 * args.control_dt_s < target_t && steps < max_steps {
+        while car.plant.x[ix::T] + 0.5 * args.control_dt_s < target_t && steps < max_steps {
             steps += 1;
-            let s_local = plant.x[ix::S] - self.plan.s_origin;
-            let r = if self.stale {
+            // The feedback sees the measured state; the statistics the true one.
+            let y = car.measure();
+            self.measured = y;
+            let control = if self.stale {
                 None
             } else {
-                reference(&self.plan, s_local)
+                self.controller.control(&self.plan, &y)
             };
-            let u = match r {
-                Some(r) => {
-                    let (u, err) = track(&params, &self.gains, &plant.x, &r);
+            let u = match control {
+                Some((u, r)) => {
+                    let err = crate::tracker::errors(&car.plant.x, &r);
                     stats.n += 1;
                     stats.sum_e2 += err.e * err.e;
                     stats.max_e = stats.max_e.max(err.e.abs());
@@ -419,13 +459,11 @@ impl TrackerLoop {
                     self.e_hold = r.x[ix::E];
                     u
                 }
-                None => brake_to_stop(&params, &self.gains, &plant.x, road, self.e_hold),
+                None => brake_to_stop(&params, &self.gains, &y, road, self.e_hold),
             };
-            for _ in 0..self.substeps {
-                plant.step(u, road, self.plant_dt);
-            }
-            stats.e_lo = stats.e_lo.min(plant.x[ix::E]);
-            stats.e_hi = stats.e_hi.max(plant.x[ix::E]);
+            car.drive(u, road, self.substeps, self.plant_dt);
+            stats.e_lo = stats.e_lo.min(car.plant.x[ix::E]);
+            stats.e_hi = stats.e_hi.max(car.plant.x[ix::E]);
         }
     }
 
@@ -438,28 +476,28 @@ impl TrackerLoop {
         if self.stale {
             flags |= FLAG_STALE;
         }
-        if self.plant.stopped {
+        if self.car.plant.stopped {
             flags |= FLAG_STOPPED;
             if self.stopped_at.is_none() {
                 self.stopped_at = Some(now);
-                elog!("tracker: stopped at s = {:.1} m", self.plant.x[ix::S]);
+                elog!("tracker: stopped at s = {:.1} m", self.car.plant.x[ix::S]);
             }
         }
         let seq = self.inbox.own.next_seq();
         publish_state(
             &ports.publisher,
             &ports.notifier,
-            VehicleState::new(self.sc.id, seq, flags, self.plant.x)
+            VehicleState::new(self.sc.id, seq, flags, self.measured)
                 .with_run_id(self.inbox.own.run_id()),
         )
     }
 
     /// Why the run ends after the pass at `now`, if it does.
     fn end_reason(&self, args: &TrackerArgs, now: Instant) -> Option<&'static str> {
-        if self.plant.x[ix::S] >= self.distance {
+        if self.car.plant.x[ix::S] >= self.distance {
             return Some("distance reached");
         }
-        if self.plant.x[ix::T] >= args.duration_s {
+        if self.car.plant.x[ix::T] >= args.duration_s {
             return Some("duration reached");
         }
         if let Some(at) = self.stopped_at {
@@ -471,8 +509,9 @@ impl TrackerLoop {
     }
 
     /// Logs the outcome and returns the summary as JSON.
-    fn report(&self, end_reason: &str) -> serde_json::Value {
-        let (plant, stats, inbox, road) = (&self.plant, &self.stats, &self.inbox, &self.sc.road);
+    fn report(&self, args: &TrackerArgs, end_reason: &str) -> serde_json::Value {
+        let (plant, stats, inbox, road) =
+            (&self.car.plant, &self.stats, &self.inbox, &self.sc.road);
         let rms = if stats.n > 0 {
             (stats.sum_e2 / stats.n as f64).sqrt()
         } else {
@@ -493,7 +532,7 @@ impl TrackerLoop {
         );
         let us = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-3;
         let stale_at_s = self.stale_at_s;
-        serde_json::json!({
+        let mut obj = serde_json::json!({
             "process": "tracker",
             "end_reason": end_reason,
             "laps_or_distance_m": plant.x[ix::S],
@@ -525,7 +564,16 @@ impl TrackerLoop {
             "ipc_latency_us_p50": us(&inbox.ipc_lat, 0.5),
             "ipc_latency_us_p99": us(&inbox.ipc_lat, 0.99),
             "ipc_latency_samples": inbox.ipc_lat.count(),
-        })
+        });
+        crate::mismatch::add_to_report(
+            &mut obj,
+            &args.mismatch,
+            &self.mismatch,
+            args.plant_vehicle.as_deref(),
+            args.noise_seed,
+            self.controller.preview_s(),
+        );
+        obj
     }
 }
 
@@ -582,7 +630,7 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
             break;
         }
     }
-    Ok(tl.report(end_reason))
+    Ok(tl.report(args, end_reason))
 }
 
 #[cfg(test)]

@@ -172,3 +172,64 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     assert_eq!(output, &fresh);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The tracker's 1 kHz step allocates nothing with the default plant mismatch: measuring
+/// (noise draw), the feed-forward plus LQR control (gain interpolation, plan lookup) and
+/// driving the car (delay line, steering lag, plant RK4 substeps).
+#[test]
+fn the_tracker_step_with_mismatch_allocates_nothing() {
+    use ipc::controller::Controller;
+    use ipc::mismatch::Mismatch;
+    use ipc::plant::car::Car;
+
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let sc = Scenario::load(
+        &root.join("scenarios/oval.toml"),
+        &root.join("vehicles/lc500.toml"),
+        &root.join("solver.toml"),
+    )
+    .unwrap();
+    let mismatch = Mismatch::from_arg("default").unwrap();
+    let (control_dt, substeps) = (0.001, 4);
+    let p = sc.spec.vehicle;
+    let mut car = Car::new(&p, &mismatch, 15.0, control_dt, 3);
+    let controller = Controller::new(&p, control_dt, 0.07).unwrap();
+    let mut x = [0.0; NX];
+    x[ix::V] = 15.0;
+    x[ix::VWR] = 15.0;
+    let mut plan = Trajectory {
+        version: MSG_VERSION,
+        road_id: sc.id,
+        ds: sc.spec.ds(),
+        x_from: x,
+        ..Trajectory::zeroed()
+    };
+    for (k, node) in plan.x.iter_mut().enumerate() {
+        *node = x;
+        node[ix::S] = k as f64 * plan.ds;
+    }
+    let mut steps = 0u64;
+    let mut step = |car: &mut Car| {
+        let y = car.measure();
+        let (u, _) = controller
+            .control(&plan, &y)
+            .expect("the plan covers the car");
+        car.drive(u, &sc.road, substeps, control_dt / substeps as f64);
+        steps += 1;
+    };
+    for _ in 0..10 {
+        step(&mut car);
+    }
+    let info = allocation_counter::measure(|| {
+        for _ in 0..2000 {
+            step(&mut car);
+        }
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+    assert_eq!(steps, 2010);
+    assert!(
+        car.plant.x[ix::S] > 20.0,
+        "the car drove: {:?}",
+        car.plant.x
+    );
+}

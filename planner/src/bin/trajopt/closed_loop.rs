@@ -42,6 +42,15 @@ pub struct ClosedLoopArgs {
     /// Record the planner's inputs and outputs to this MCAP file (`planner_proc --record`).
     #[arg(long)]
     record: Option<PathBuf>,
+    /// Vehicle file of the simulated car (tracker only; default: --vehicle).
+    #[arg(long)]
+    plant_vehicle: Option<PathBuf>,
+    /// Plant mismatch (tracker only): none, default or a TOML file.
+    #[arg(long, default_value = "none")]
+    mismatch: String,
+    /// Seed of the measurement noise (tracker only).
+    #[arg(long, default_value_t = 1)]
+    noise_seed: u64,
 }
 
 /// Kills a child on drop unless it was waited for (no orphans on error paths).
@@ -154,11 +163,27 @@ fn spawn_pair(
         .arg(args.duration_s.to_string())
         .arg("--distance-m")
         .arg(args.distance_m.to_string());
+    // The plant's settings go to the tracker only: the planner never sees them.
+    tc.arg("--mismatch")
+        .arg(mismatch_arg(&args.mismatch))
+        .arg("--noise-seed")
+        .arg(args.noise_seed.to_string());
+    if let Some(path) = &args.plant_vehicle {
+        tc.arg("--plant-vehicle").arg(resolve(path));
+    }
     let tracker = ChildGuard(Some(
         tc.spawn()
             .map_err(|e| format!("{}: {e}", tracker_exe.display()))?,
     ));
     Ok((planner, tracker))
+}
+
+/// `none` and `default` as they are; a file path resolved like the other input files.
+fn mismatch_arg(m: &str) -> std::ffi::OsString {
+    match m {
+        "none" | "default" => m.into(),
+        path => resolve(Path::new(path)).into_os_string(),
+    }
 }
 
 /// Runs the closed loop and prints its summary (one JSON object with `--json`).
@@ -220,6 +245,7 @@ fn summary_json(
         "rms_lateral_error_m": f("rms_lateral_error_m"),
         "max_sideslip_error_rad": f("max_sideslip_error_rad"),
         "lane_kept": f("lane_kept"),
+        "mismatch": f("mismatch"),
         "plan_latency_ms_p50": f("plan_latency_ms_p50"),
         "plan_latency_ms_p99": f("plan_latency_ms_p99"),
         "ipc_latency_us_p50": f("ipc_latency_us_p50"),

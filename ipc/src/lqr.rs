@@ -1,0 +1,287 @@
+//! Speed-scheduled LQR on the tracking-error dynamics.
+//!
+//! The error z = x - x_ref over the states [r, V, beta, V_wr, e, dpsi] and the control
+//! correction v = u - u_ref over [delta, T_comb] obey, to first order around the plan,
+//! z_dot = A z + B v with A = df/dx, B = df/du of the single-track model (paper eq. 1).
+//! The Jacobians are taken exactly (dual numbers through `time_derivatives`) at
+//! straight-line cruise at speed V (r = beta = dFz = e = dpsi = 0, V_wr = V, u = 0,
+//! kappa = 0) with the planner's vehicle parameters: the tracker knows the model, not the
+//! car. They are discretised with the control period T_c (zero-order hold,
+//! exp([[A, B], [0, 0]] T_c) by a scaled Taylor series) and the discrete algebraic Riccati
+//! equation P = A'PA - A'PB (R + B'PB)^-1 B'PA + Q is solved by the structure-preserving
+//! doubling algorithm, which converges quadratically also when the slow modes sit close to
+//! the unit circle (T_c = 1 ms). The gain K = (R + B'PB)^-1 B'PA gives v = -K z.
+//!
+//! The gains are designed once at start-up on a grid of speeds and interpolated linearly in
+//! V in the control step ([`GainSchedule::gain`]), which allocates nothing.
+
+use nalgebra::{SMatrix, SVector};
+use num_dual::DualSVec64;
+use planner::model::{iu, ix, time_derivatives, VehicleParams, NU, NX};
+
+/// Number of error states [r, V, beta, V_wr, e, dpsi].
+pub const NZ: usize = 6;
+/// Number of feedback inputs [delta, T_comb].
+pub const NV: usize = 2;
+/// State index (in x) of each error state.
+pub const Z_STATES: [usize; NZ] = [ix::R, ix::V, ix::BETA, ix::VWR, ix::E, ix::DPSI];
+/// Control index (in u) of each feedback input.
+pub const V_INPUTS: [usize; NV] = [iu::DELTA, iu::TCOMB];
+
+type MatZ = SMatrix<f64, NZ, NZ>;
+type MatB = SMatrix<f64, NZ, NV>;
+/// Feedback gain K (v = -K z).
+pub type Gain = SMatrix<f64, NV, NZ>;
+
+/// Diagonal LQR weights, as the largest acceptable error or correction (Bryson's rule:
+/// weight 1 / max^2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Weights {
+    /// Largest acceptable error per state [r, V, beta, V_wr, e, dpsi] (SI units).
+    pub z_max: [f64; NZ],
+    /// Largest acceptable correction per input [delta \[rad\], T_comb \[N m\]].
+    pub v_max: [f64; NV],
+}
+
+impl Default for Weights {
+    /// Position and heading first (0.05 m, 0.02 rad), speed loosely (0.5 m/s), yaw rate
+    /// and sideslip very loosely (the plan's values come from the nominal model, which a
+    /// mismatched car cannot match in a steady curve), the wheel speed tightly (the rear
+    /// wheel mode is fast and unstable past the tire peak).
+    fn default() -> Self {
+        Self {
+            z_max: [1.0, 0.5, 0.5, 0.2, 0.05, 0.02],
+            v_max: [0.02, 600.0],
+        }
+    }
+}
+
+/// Jacobians A = df/dz, B = df/dv of the model at straight-line cruise at speed `v`.
+pub fn linearise(p: &VehicleParams, v: f64) -> (MatZ, MatB) {
+    type D = DualSVec64<{ NZ + NV }>;
+    let mut x0 = [0.0; NX];
+    x0[ix::V] = v;
+    x0[ix::VWR] = v;
+    let mut x: [D; NX] = std::array::from_fn(|i| D::from_re(x0[i]));
+    for (j, &i) in Z_STATES.iter().enumerate() {
+        x[i] = D::from_re(x0[i]).derivative(j);
+    }
+    let mut u: [D; NU] = std::array::from_fn(|_| D::from_re(0.0));
+    for (m, &i) in V_INPUTS.iter().enumerate() {
+        u[i] = D::from_re(0.0).derivative(NZ + m);
+    }
+    let f = time_derivatives(p, &x, &u, 0.0).dxdt;
+    let mut a = MatZ::zeros();
+    let mut b = MatB::zeros();
+    for (row, &i) in Z_STATES.iter().enumerate() {
+        let g: [f64; NZ + NV] = match &f[i].eps.0 {
+            Some(m) => std::array::from_fn(|k| m[k]),
+            None => [0.0; NZ + NV],
+        };
+        for j in 0..NZ {
+            a[(row, j)] = g[j];
+        }
+        for m in 0..NV {
+            b[(row, m)] = g[NZ + m];
+        }
+    }
+    (a, b)
+}
+
+/// Zero-order-hold discretisation over `ts` \[s\]: (exp(A ts), int_0^ts exp(A t) dt B).
+pub fn discretise(a: &MatZ, b: &MatB, ts: f64) -> (MatZ, MatB) {
+    const N: usize = NZ + NV;
+    let mut m = SMatrix::<f64, N, N>::zeros();
+    m.fixed_view_mut::<NZ, NZ>(0, 0).copy_from(&(a * ts));
+    m.fixed_view_mut::<NZ, NV>(0, NZ).copy_from(&(b * ts));
+    // Scale so the norm is below 1/2, sum the Taylor series, square back.
+    let norm = m.abs().sum();
+    let mut squarings = 0;
+    let mut scale = 1.0;
+    while norm * scale > 0.5 && squarings < 60 {
+        scale *= 0.5;
+        squarings += 1;
+    }
+    let ms = m * scale;
+    let mut e = SMatrix::<f64, N, N>::identity();
+    let mut term = SMatrix::<f64, N, N>::identity();
+    for k in 1..=20 {
+        term = term * ms / k as f64;
+        e += term;
+    }
+    for _ in 0..squarings {
+        e = e * e;
+    }
+    (
+        e.fixed_view::<NZ, NZ>(0, 0).into_owned(),
+        e.fixed_view::<NZ, NV>(0, NZ).into_owned(),
+    )
+}
+
+/// The stabilising solution's gain K of the discrete LQR (A, B, diag q, diag r) by the
+/// structure-preserving doubling algorithm (at most 100 doublings); `None` when it does
+/// not converge or a matrix is singular.
+pub fn dlqr(a: &MatZ, b: &MatB, q: &[f64; NZ], r: &[f64; NV]) -> Option<Gain> {
+    let q = MatZ::from_diagonal(&SVector::<f64, NZ>::from(*q));
+    let r = SMatrix::<f64, NV, NV>::from_diagonal(&SVector::<f64, NV>::from(*r));
+    let r_inv = r.try_inverse()?;
+    let mut ak = *a;
+    let mut gk = b * r_inv * b.transpose();
+    let mut hk = q;
+    let id = MatZ::identity();
+    for _ in 0..100 {
+        let w = (id + gk * hk).try_inverse()?;
+        let a_next = ak * w * ak;
+        let g_next = gk + ak * w * gk * ak.transpose();
+        let h_next = hk + ak.transpose() * hk * w * ak;
+        let change = (h_next - hk).abs().max() / h_next.abs().max().max(1e-300);
+        ak = a_next;
+        gk = g_next;
+        hk = h_next;
+        if change < 1e-13 {
+            let p = hk;
+            let s = r + b.transpose() * p * b;
+            let k = s.try_inverse()? * b.transpose() * p * a;
+            return k.iter().all(|v| v.is_finite()).then_some(k);
+        }
+    }
+    None
+}
+
+/// LQR gains on a grid of speeds.
+#[derive(Debug, Clone)]
+pub struct GainSchedule {
+    v_lo: f64,
+    dv: f64,
+    gains: Vec<Gain>,
+}
+
+/// Lowest and highest speed of the schedule [m/s]; outside, the end gains hold.
+pub const SCHEDULE_SPEEDS: (f64, f64) = (3.0, 90.0);
+
+impl GainSchedule {
+    /// Designs the gains for the model `p`, control period `ts` \[s\] and `weights` on a
+    /// 1 m/s grid over [`SCHEDULE_SPEEDS`]. Errors name the speed where the design fails.
+    pub fn design(p: &VehicleParams, weights: &Weights, ts: f64) -> Result<Self, String> {
+        let q: [f64; NZ] = std::array::from_fn(|i| weights.z_max[i].powi(-2));
+        let r: [f64; NV] = std::array::from_fn(|i| weights.v_max[i].powi(-2));
+        let (v_lo, v_hi) = SCHEDULE_SPEEDS;
+        let dv = 1.0;
+        let n = ((v_hi - v_lo) / dv).round() as usize + 1;
+        let mut gains = Vec::with_capacity(n);
+        for k in 0..n {
+            let v = v_lo + k as f64 * dv;
+            let (a, b) = linearise(p, v);
+            let (ad, bd) = discretise(&a, &b, ts);
+            let gain = dlqr(&ad, &bd, &q, &r)
+                .ok_or_else(|| format!("LQR design failed at V = {v} m/s"))?;
+            gains.push(gain);
+        }
+        Ok(Self { v_lo, dv, gains })
+    }
+
+    /// The gain at speed `v`, interpolated linearly (end gains outside the grid; NaN gives
+    /// the lowest speed's gain). Allocates nothing.
+    pub fn gain(&self, v: f64) -> Gain {
+        let last = self.gains.len() - 1;
+        let q = ((v - self.v_lo) / self.dv).clamp(0.0, last as f64);
+        let q = if q.is_nan() { 0.0 } else { q };
+        let k = (q.floor() as usize).min(last.saturating_sub(1));
+        let w = q - k as f64;
+        if last == 0 {
+            return self.gains[0];
+        }
+        self.gains[k] * (1.0 - w) + self.gains[k + 1] * w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn lc500() -> VehicleParams {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        planner::config::load_vehicle(&root.join("config/vehicles/lc500.toml")).unwrap()
+    }
+
+    #[test]
+    fn the_jacobians_match_central_differences_of_the_model() {
+        let p = lc500();
+        let v = 20.0;
+        let (a, b) = linearise(&p, v);
+        let f = |dz: &[f64; NZ], dv: &[f64; NV]| {
+            let mut x = [0.0; NX];
+            x[ix::V] = v;
+            x[ix::VWR] = v;
+            let mut u = [0.0; NU];
+            for (j, &i) in Z_STATES.iter().enumerate() {
+                x[i] += dz[j];
+            }
+            for (m, &i) in V_INPUTS.iter().enumerate() {
+                u[i] += dv[m];
+            }
+            time_derivatives(&p, &x, &u, 0.0).dxdt
+        };
+        // Steps per column [r, V, beta, V_wr, e, dpsi, delta, T_comb].
+        let steps = [1e-6, 1e-5, 1e-7, 1e-6, 1e-6, 1e-7, 1e-7, 1e-2];
+        for (j, &h) in steps.iter().enumerate() {
+            let (mut zp, mut zm) = ([0.0; NZ], [0.0; NZ]);
+            let (mut vp, mut vm) = ([0.0; NV], [0.0; NV]);
+            if j < NZ {
+                zp[j] = h;
+                zm[j] = -h;
+            } else {
+                vp[j - NZ] = h;
+                vm[j - NZ] = -h;
+            }
+            let (fp, fm) = (f(&zp, &vp), f(&zm, &vm));
+            for (row, &i) in Z_STATES.iter().enumerate() {
+                let fd = (fp[i] - fm[i]) / (2.0 * h);
+                let exact = if j < NZ {
+                    a[(row, j)]
+                } else {
+                    b[(row, j - NZ)]
+                };
+                assert!(
+                    (fd - exact).abs() <= 1e-4 * (1.0 + exact.abs()),
+                    "d f[{i}] / d[{j}]: exact {exact}, differences {fd}"
+                );
+            }
+        }
+    }
+
+    /// The discrete closed loop A - B K is stable (spectral radius below 1) at every speed of
+    /// the schedule, and the open loop at speed has the expected integrators (e, dpsi).
+    #[test]
+    fn the_designed_gains_stabilise_the_error_dynamics_at_every_speed() {
+        let p = lc500();
+        let ts = 0.001;
+        let sched = GainSchedule::design(&p, &Weights::default(), ts).unwrap();
+        let (lo, hi) = SCHEDULE_SPEEDS;
+        let mut v = lo;
+        while v <= hi {
+            let (a, b) = linearise(&p, v);
+            let (ad, bd) = discretise(&a, &b, ts);
+            let cl = ad - bd * sched.gain(v);
+            let rho = cl
+                .complex_eigenvalues()
+                .iter()
+                .map(|z| z.norm())
+                .fold(0.0, f64::max);
+            assert!(rho < 1.0, "V = {v}: spectral radius {rho}");
+            v += 2.5;
+        }
+    }
+
+    #[test]
+    fn the_discretisation_matches_euler_for_a_small_step() {
+        let p = lc500();
+        let (a, b) = linearise(&p, 30.0);
+        let ts = 1e-7;
+        let (ad, bd) = discretise(&a, &b, ts);
+        let euler = MatZ::identity() + a * ts;
+        assert!((ad - euler).abs().max() < 1e-9);
+        assert!((bd - b * ts).abs().max() < 1e-9 * b.abs().max());
+    }
+}

@@ -5,7 +5,7 @@
 //! The primal point is the NLP's `initial_point`, pushed into the relaxed bounds as in a
 //! cold start (`start`). The bound multipliers are the given ones, floored at
 //! [`Z_FLOOR`] so that every complementarity pair stays strictly interior; y is taken as
-//! given. The barrier parameter of the first iteration is the average complementarity of
+//! given (a non-finite entry as 0). The barrier parameter of the first iteration is the average complementarity of
 //! the pairs at that point, mu = (1 / n_c) sum_i s_i z_i, clipped to
 //! \[`WarmStart::mu_floor`, `Settings::mu_init`\]: a barrier problem whose central path
 //! passes near the starting point, so the first Newton steps do not have to re-centre it.
@@ -41,7 +41,9 @@ impl<K: KktSolver> Solver<K> {
         if warm.y.len() != m || warm.zl.len() != n + m || warm.zu.len() != n + m {
             return false;
         }
-        ws.y.copy_from_slice(warm.y);
+        for (y, &v) in ws.y.iter_mut().zip(warm.y) {
+            *y = if v.is_finite() { v } else { 0.0 };
+        }
         for j in 0..n + m {
             ws.zl[j] = if ws.has_lo[j] {
                 nonneg(warm.zl[j]).max(Z_FLOOR)

@@ -22,7 +22,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use plan_record::now_ns;
 use planner::ip::{SolveInfo, Status};
 use planner::model::{ix, NU, NX};
-use planner::plan::{Planner, ReplanGuess};
+use planner::plan::{Planner, ReplanGuess, WarmOptions};
 
 use crate::clock::monotonic_ns;
 use crate::elog;
@@ -65,9 +65,9 @@ pub struct PlannerArgs {
     /// Lane margin the plan keeps from each edge [m] (room for tracking error).
     #[arg(long, default_value_t = 0.5)]
     pub lane_margin_m: f64,
-    /// Warm-start from the previous plan shifted in s (off by default: every plan starts
-    /// from the equilibrium guess, which converges more reliably in closed loop; see
-    /// docs/performance.md).
+    /// Warm-start from the previous plan shifted in s, primal and dual, with a barrier
+    /// parameter matched to the shifted point (`Planner::replan_warm`; off by default:
+    /// warm-started plans are not recorded, see docs/solver.md).
     #[arg(long, default_value = "off", value_parser = ["on", "off"])]
     pub warm_start: String,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
@@ -498,19 +498,25 @@ impl PlannerLoop {
             && shift < 0.5 * HORIZON_N as f64 * ds;
         if sound {
             cy.shifted_guess(shift, &x0, ds);
-            let r = cy.planner.replan(
+            // Primal and dual, falling back to the equilibrium inside the same caps.
+            let r = cy.planner.replan_warm(
                 &cy.road.kappa,
                 &cy.road.e_min,
                 &cy.road.e_max,
                 x0,
-                ReplanGuess::Warm(&cy.guess_x, &cy.guess_u),
+                (&cy.guess_x, &cy.guess_u),
+                shift,
+                WarmOptions::default(),
             );
             match r {
-                Ok(i) if i.status.is_success() => {
-                    self.warm += 1;
-                    return Some((i, true));
+                Ok(r) if r.fell_back => {
+                    self.cold += 1;
+                    return Some((r.info, false));
                 }
-                Ok(_) => {}
+                Ok(r) => {
+                    self.warm += 1;
+                    return Some((r.info, true));
+                }
                 Err(e) => elog!("planner: warm replan failed: {e}"),
             }
         }

@@ -9,6 +9,9 @@ use crate::ocp::transcription::{ImplicitEulerNlp, TranscriptionError};
 use crate::ocp::{InitialState, OcpSpec};
 use crate::trajectory::Trajectory;
 
+mod warm;
+pub use warm::{shift_plan, WarmOptions, WarmReplan};
+
 /// Start speed of the equilibrium least-squares problem when the initial state is free
 /// (the independent reference starts it at 15 m/s, too).
 pub const DEFAULT_GUESS_SPEED: f64 = 15.0;
@@ -61,6 +64,8 @@ pub struct Planner<const N: usize> {
     v_start: f64,
     xs: Vec<[f64; NX]>,
     us: Vec<[f64; NU]>,
+    /// Buffers of the shifted primal-dual start ([`Planner::replan_warm`]).
+    warm: warm::WarmBuffers,
 }
 
 impl<const N: usize> Planner<N> {
@@ -76,6 +81,13 @@ impl<const N: usize> Planner<N> {
         let solver = Solver::new(&nlp, settings)?;
         // threads = 2: the Hessian evaluation shares the factorization's helper thread.
         nlp.set_worker(solver.kkt().worker());
+        let rows: Vec<_> = (0..solver.workspace().m)
+            .map(|i| {
+                let r = nlp.describe_row(i);
+                (r.kind, r.node)
+            })
+            .collect();
+        let warm = warm::WarmBuffers::new(N, solver.workspace().n, &rows);
         Ok(Self {
             nlp,
             solver,
@@ -83,6 +95,7 @@ impl<const N: usize> Planner<N> {
             v_start,
             xs: vec![[0.0; NX]; N + 1],
             us: vec![[0.0; NU]; N],
+            warm,
         })
     }
 
@@ -154,19 +167,6 @@ impl<const N: usize> Planner<N> {
         x0: [f64; NX],
         guess: ReplanGuess<'_>,
     ) -> Result<SolveInfo, PlanError> {
-        for (field, len, expected) in [
-            ("kappa", kappa.len(), N + 1),
-            ("e_min", e_min.len(), N + 1),
-            ("e_max", e_max.len(), N + 1),
-        ] {
-            if len != expected {
-                return Err(PlanError::ReplanLength {
-                    field,
-                    expected,
-                    got: len,
-                });
-            }
-        }
         if let ReplanGuess::Warm(xs, us) = guess {
             if xs.len() != N + 1 || us.len() != N {
                 return Err(PlanError::ReplanLength {
@@ -184,15 +184,7 @@ impl<const N: usize> Planner<N> {
                 });
             }
         }
-        // Checked before anything changes: a refused input leaves the planner as it was.
-        crate::ocp::spec::check_road(kappa, e_min, e_max, N)?;
-        self.nlp
-            .spec()
-            .initial_domain(kappa, e_min, e_max)
-            .check(&x0)?;
-        // In place: same sparsity, so the solver's symbolic analysis stays valid.
-        self.nlp.update_road(kappa, e_min, e_max)?;
-        self.nlp.set_initial(InitialState::Fixed(x0));
+        self.set_window(kappa, e_min, e_max, x0)?;
         match guess {
             ReplanGuess::Equilibrium => {
                 if x0[ix::V].to_bits() != self.v_start.to_bits() {
@@ -209,6 +201,40 @@ impl<const N: usize> Planner<N> {
         self.nlp
             .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
         Ok(info)
+    }
+
+    /// Writes a new road window and the fixed initial state x0 into the transcription,
+    /// after checking them; a refused input leaves the planner as it was.
+    pub(crate) fn set_window(
+        &mut self,
+        kappa: &[f64],
+        e_min: &[f64],
+        e_max: &[f64],
+        x0: [f64; NX],
+    ) -> Result<(), PlanError> {
+        for (field, len, expected) in [
+            ("kappa", kappa.len(), N + 1),
+            ("e_min", e_min.len(), N + 1),
+            ("e_max", e_max.len(), N + 1),
+        ] {
+            if len != expected {
+                return Err(PlanError::ReplanLength {
+                    field,
+                    expected,
+                    got: len,
+                });
+            }
+        }
+        // Checked before anything changes: a refused input leaves the planner as it was.
+        crate::ocp::spec::check_road(kappa, e_min, e_max, N)?;
+        self.nlp
+            .spec()
+            .initial_domain(kappa, e_min, e_max)
+            .check(&x0)?;
+        // In place: same sparsity, so the solver's symbolic analysis stays valid.
+        self.nlp.update_road(kappa, e_min, e_max)?;
+        self.nlp.set_initial(InitialState::Fixed(x0));
+        Ok(())
     }
 
     /// States x_0..x_N of the last solve (physical units).

@@ -1,5 +1,6 @@
-//! What a capped solve returns: the best iterate so far (feasibility first, then the KKT
-//! error), not the last one; and a wall-clock cap ends a solve with `time_limit`.
+//! What a capped solve returns: the best iterate so far as the filter ranks iterates (the
+//! violation ||c||_1 first, then among iterates feasible to the acceptable level the
+//! objective), not the last one; and a wall-clock cap ends a solve with `time_limit`.
 
 use planner::config::{load_scenario, load_solver, load_vehicle};
 use planner::guess::GuessKind;
@@ -16,15 +17,15 @@ fn oval(settings: impl FnOnce(&mut Settings)) -> Planner<100> {
     Planner::<100>::new(spec, s).unwrap()
 }
 
-/// The solver's ranking of a logged iterate: violation above the acceptable level first,
-/// then the overall scaled KKT error.
+/// The filter's ranking of a logged iterate: the violation ||c||_1 where the max violation
+/// is above the acceptable level (0 below it) first, then the objective.
 fn score(row: &IterLog, s: &Settings) -> (f64, f64) {
     let feas = if row.inf_pr <= s.acceptable_constr_viol_tol {
         0.0
     } else {
-        row.inf_pr
+        row.theta
     };
-    (feas, row.inf_du.max(row.inf_pr).max(row.compl))
+    (feas, row.objective)
 }
 
 #[test]

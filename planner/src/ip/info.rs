@@ -84,6 +84,8 @@ pub struct IterLog {
     pub objective: f64,
     /// Max constraint violation.
     pub inf_pr: f64,
+    /// The filter's violation measure ||c||_1 at this iterate.
+    pub theta: f64,
     /// Scaled dual infeasibility (restoration rows: relative stationarity of the violation).
     pub inf_du: f64,
     /// Scaled complementarity.
@@ -153,8 +155,8 @@ pub struct SolveInfo {
     pub evaluations: usize,
     /// Time per phase.
     pub times: PhaseTimes,
-    /// The returned point is the best iterate (smallest violation above the acceptable
-    /// level, then smallest KKT error), not the last one: the solve stopped at a cap
+    /// The returned point is the best iterate (the filter's violation ||c||_1 above the
+    /// acceptable level first, then the objective), not the last one: the solve stopped at a cap
     /// (`iteration_limit`, `time_limit`, or `acceptable` from either) or on a numerical
     /// failure. False for `optimal`, `locally_infeasible` and an unstarted solve, which
     /// return their last iterate.

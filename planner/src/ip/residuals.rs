@@ -7,6 +7,8 @@ use super::workspace::Workspace;
 pub struct Errors {
     /// Max |c| (constraint violation of g(x) - s).
     pub inf_pr: f64,
+    /// ||c||_1, the filter's violation measure.
+    pub theta: f64,
     /// Max |grad L| (unscaled).
     pub inf_du: f64,
     /// Max complementarity |slack * z| (unscaled, mu = 0).
@@ -78,6 +80,7 @@ pub fn compute_errors(ws: &mut Workspace, mu: f64) -> Errors {
     let s_c = (z_sum / nc).max(s_max) / s_max;
     Errors {
         inf_pr,
+        theta: super::vector::norm1(&ws.c),
         inf_du,
         compl,
         compl_mu,

@@ -278,14 +278,15 @@ fn finish_recording(
 /// Prints the solver's iteration log of the last solve to stderr.
 fn print_log(planner: &Planner<HORIZON>) {
     errln!(
-        "iter  objective      inf_pr    inf_du    compl     mu        alpha     delta_w  nf bt step"
+        "iter  objective      inf_pr    theta     inf_du    compl     mu        alpha     delta_w  nf bt step"
     );
     for l in planner.solver().log() {
         errln!(
-            "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
+            "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
             l.iter,
             l.objective,
             l.inf_pr,
+            l.theta,
             l.inf_du,
             l.compl,
             l.mu,

@@ -1,14 +1,18 @@
 //! Best-iterate bookkeeping (a solve that does not converge returns the best point it
 //! saw) and the stall watch of the regular iterations.
 //!
-//! The best iterate is the one with the smallest score (v, E), compared lexicographically:
-//! v is the max constraint violation ||c||_inf where it exceeds
-//! `acceptable_constr_viol_tol`, and 0 at points feasible to that level; E is the overall
-//! scaled KKT error (dual infeasibility, violation, complementarity). So among infeasible
-//! iterates the least violated wins, any iterate feasible to the acceptable level beats
-//! every infeasible one, and among those the one closest to optimality wins. A tie keeps
-//! the earlier iterate. Every iterate the loop reaches is scored when its derivatives are
-//! evaluated, before the termination test, so an iterate a cap stops at takes part.
+//! The best iterate is ranked on the filter's two measures (Waechter & Biegler 2006): the
+//! violation theta = ||c||_1 and the objective f. Its score is (v, f), compared
+//! lexicographically, with v = theta at iterates whose max violation ||c||_inf exceeds
+//! `acceptable_constr_viol_tol` and v = 0 at iterates feasible to that level. So among
+//! infeasible iterates the one with the smallest theta wins, as the filter prefers a point
+//! that reduces the violation; every iterate feasible to the acceptable level beats every
+//! infeasible one; and among those, which the filter's switching condition judges by the
+//! objective alone, the one with the smallest objective wins. The barrier objective the
+//! filter compares within one barrier problem is not comparable across barrier parameters,
+//! so the ranking takes f itself. A tie keeps the earlier iterate. Every iterate the loop
+//! reaches is scored when its derivatives are evaluated, before the termination test, so an
+//! iterate a cap stops at takes part.
 
 use super::Solver;
 use crate::ip::kkt::KktSolver;
@@ -62,7 +66,7 @@ impl StallWatch {
 /// The best iterate seen so far: its score and iteration.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct BestIterate {
-    /// Its score (see [`Solver::score`]).
+    /// Its score (see `Solver::score`).
     pub(super) score: (f64, f64),
     /// The iteration it was reached at (the index of its log row).
     pub(super) iteration: usize,
@@ -75,6 +79,16 @@ impl BestIterate {
             score: (f64::INFINITY, f64::INFINITY),
             iteration: 0,
         }
+    }
+}
+
+/// `x`, with NaN mapped to +infinity so that it ranks last (a NaN score compares false
+/// against everything and would never be replaced).
+fn nan_last(x: f64) -> f64 {
+    if x.is_nan() {
+        f64::INFINITY
+    } else {
+        x
     }
 }
 
@@ -92,15 +106,17 @@ impl<K: KktSolver> Solver<K> {
         }
     }
 
-    /// Ranking of iterates for "best so far": violation above the acceptable level first,
-    /// then the overall KKT error (see the module documentation).
+    /// Ranking of the current iterate, whose errors are `e`, for "best so far": the
+    /// filter's violation ||c||_1 above the acceptable level first, then the objective (see
+    /// the module documentation). NaN measures rank last.
     pub(super) fn score(&self, e: &Errors) -> (f64, f64) {
-        let feas = if e.inf_pr <= self.settings.acceptable_constr_viol_tol {
+        let v = if e.inf_pr <= self.settings.acceptable_constr_viol_tol {
             0.0
         } else {
-            e.inf_pr
+            e.theta
         };
-        (feas, e.overall())
+        let f = self.ws.f;
+        (nan_last(v), nan_last(f))
     }
 
     pub(super) fn save_best(&mut self) {

@@ -20,6 +20,7 @@ mod merit;
 mod restoration;
 mod start;
 mod termination;
+mod warm;
 
 use super::info::{IterLog, SolveInfo, Status, StepKind};
 use super::kkt::backend::{BackendError, Pattern};
@@ -31,6 +32,7 @@ use super::workspace::Workspace;
 use best::{BestIterate, StallWatch};
 use clock::{Clock, OutOfTime, Phase};
 use restoration::Restoration;
+pub use warm::WarmStart;
 
 /// Error constructing a solver.
 #[derive(Debug, thiserror::Error)]
@@ -198,6 +200,20 @@ impl<K: KktSolver> Solver<K> {
 
     /// Solves the NLP from its `initial_point`. Allocates nothing.
     pub fn solve<P: Nlp + ?Sized>(&mut self, nlp: &mut P) -> SolveInfo {
+        self.solve_from(nlp, None)
+    }
+
+    /// Solves the NLP from its `initial_point` with the multipliers of `warm` and a barrier
+    /// parameter matched to that point (see [`WarmStart`]). Allocates nothing.
+    pub fn solve_warm<P: Nlp + ?Sized>(&mut self, nlp: &mut P, warm: &WarmStart<'_>) -> SolveInfo {
+        self.solve_from(nlp, Some(warm))
+    }
+
+    fn solve_from<P: Nlp + ?Sized>(
+        &mut self,
+        nlp: &mut P,
+        warm: Option<&WarmStart<'_>>,
+    ) -> SolveInfo {
         let mut clock = Clock::start(self.settings.max_time_s);
         let mut info = unstarted_info();
         self.ws.log.clear();
@@ -207,11 +223,17 @@ impl<K: KktSolver> Solver<K> {
             info.times.total = clock.elapsed();
             return info;
         }
-        self.start_multipliers(nlp, &mut info, &mut clock);
+        let warmed = warm.is_some_and(|w| self.warm_multipliers(w));
+        if !warmed {
+            self.start_multipliers(nlp, &mut info, &mut clock);
+        }
         // The best iterate starts as this solve's own start: a solve that stops before its
         // first scored iterate (non-finite derivatives) must not restore an older point.
         self.save_best();
         let mut st = self.loop_state();
+        if let (true, Some(w)) = (warmed, warm) {
+            st.mu = self.matched_mu(w.mu_floor);
+        }
 
         let status = loop {
             // Derivatives at the current point (f and g are already known).
@@ -367,6 +389,7 @@ impl<K: KktSolver> Solver<K> {
                 iter,
                 objective,
                 inf_pr: err.inf_pr,
+                theta: err.theta,
                 inf_du: err.inf_du / err.s_d,
                 compl: err.compl / err.s_c,
                 mu,

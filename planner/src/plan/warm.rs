@@ -1,0 +1,252 @@
+//! Warm-started replanning: the previous plan shifted in s, primal and dual, as the
+//! starting point of the next solve, with a fall-back to the equilibrium start inside the
+//! same budget.
+//!
+//! A replanning cycle moves the window by `shift` metres. The primal guess is the previous
+//! plan's states interpolated at s + shift (t rebased to the new origin, the part past the
+//! old horizon extended at the last node's pace, x_0 the measured state), its controls
+//! taken from the interval s + shift falls in. The multipliers move by the nearest whole
+//! number of nodes j = round(shift / ds): the multiplier of a row of kind K at node k (and
+//! the bound multipliers of variable o of node k) is the previous one of kind K at node
+//! min(k + j, last); the initial-condition rows keep theirs. The solve then starts from
+//! these multipliers with a barrier parameter matched to the shifted point's
+//! complementarity (`ip::solver::warm`).
+//!
+//! A warm solve that does not succeed within `WarmOptions::max_iter` iterations stalls:
+//! the cycle then solves from the equilibrium guess with what is left of the iteration
+//! cap and of the time budget, so the two solves together keep the caps of one.
+
+use super::{PlanError, Planner, ReplanGuess};
+use crate::ip::{SolveInfo, WarmStart};
+use crate::model::{ix, NU, NX};
+use crate::ocp::layout::VarKind;
+use crate::ocp::transcription::RowKind;
+
+/// How a warm-started replan runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WarmOptions {
+    /// Iterations the warm solve may take before it counts as stalled (capped by the
+    /// solver's `max_iter`; the default leaves the solver's cap, so only a warm solve that
+    /// fails falls back).
+    pub max_iter: usize,
+    /// Lower clip of the matched barrier parameter.
+    pub mu_floor: f64,
+}
+
+impl Default for WarmOptions {
+    fn default() -> Self {
+        Self {
+            max_iter: usize::MAX,
+            mu_floor: 1e-6,
+        }
+    }
+}
+
+/// What a warm-started replan did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WarmReplan {
+    /// The solve whose plan is returned (the fall-back's when there was one).
+    pub info: SolveInfo,
+    /// Iterations of the warm solve.
+    pub warm_iterations: usize,
+    /// The warm solve stalled and the plan comes from the equilibrium start.
+    pub fell_back: bool,
+}
+
+impl WarmReplan {
+    /// Iterations of both solves together.
+    pub fn total_iterations(&self) -> usize {
+        if self.fell_back {
+            self.warm_iterations + self.info.iterations
+        } else {
+            self.info.iterations
+        }
+    }
+}
+
+/// The buffers of the shifted multipliers, allocated once with the planner.
+#[derive(Debug)]
+pub(super) struct WarmBuffers {
+    y: Vec<f64>,
+    zl: Vec<f64>,
+    zu: Vec<f64>,
+    /// First row of each node's rows (N + 1 entries: node k's rows are
+    /// `row_start[k]..row_start[k + 1]`).
+    row_start: Vec<usize>,
+}
+
+impl WarmBuffers {
+    /// Buffers for N intervals, n variables and the rows `rows` (kind and node of each).
+    pub(super) fn new(n_intervals: usize, n: usize, rows: &[(RowKind, usize)]) -> Self {
+        let m = rows.len();
+        let mut row_start = vec![m; n_intervals + 1];
+        for (i, &(_, node)) in rows.iter().enumerate().rev() {
+            if node < n_intervals {
+                row_start[node] = i;
+            }
+        }
+        for k in (0..n_intervals).rev() {
+            row_start[k] = row_start[k].min(row_start[k + 1]);
+        }
+        Self {
+            y: vec![0.0; m],
+            zl: vec![0.0; n + m],
+            zu: vec![0.0; n + m],
+            row_start,
+        }
+    }
+}
+
+/// State `s` (local arc length) of a plan with grid `ds`, linear between nodes, clamped to
+/// the horizon.
+fn interp(xs: &[[f64; NX]], ds: f64, s: f64) -> [f64; NX] {
+    let n = xs.len() - 1;
+    let q = (s / ds).clamp(0.0, n as f64);
+    let k = (q.floor() as usize).min(n - 1);
+    let w = q - k as f64;
+    let mut x = [0.0; NX];
+    for i in 0..NX {
+        x[i] = xs[k][i] + w * (xs[k + 1][i] - xs[k][i]);
+    }
+    x
+}
+
+/// The plan (`xs`, `us`, grid `ds`) shifted forward by `shift` metres into `out_x`,
+/// `out_u`, with x_0 = `x0` (see the module documentation). Allocates nothing.
+pub fn shift_plan(
+    xs: &[[f64; NX]],
+    us: &[[f64; NU]],
+    ds: f64,
+    shift: f64,
+    x0: &[f64; NX],
+    out_x: &mut [[f64; NX]],
+    out_u: &mut [[f64; NU]],
+) {
+    let n = us.len();
+    let horizon = n as f64 * ds;
+    let t_shift = interp(xs, ds, shift)[ix::T];
+    for (k, out) in out_x.iter_mut().enumerate() {
+        let s = k as f64 * ds;
+        let mut x = interp(xs, ds, s + shift);
+        x[ix::S] = s;
+        x[ix::T] = if s + shift <= horizon {
+            x[ix::T] - t_shift
+        } else {
+            let last = &xs[n];
+            last[ix::T] - t_shift + (s + shift - horizon) / last[ix::V].max(1.0)
+        };
+        *out = x;
+    }
+    out_x[0] = *x0;
+    for (k, out) in out_u.iter_mut().enumerate() {
+        let j = (((k as f64 * ds + shift) / ds).floor() as usize).min(n - 1);
+        *out = us[j];
+    }
+}
+
+impl<const N: usize> Planner<N> {
+    /// Replans from the primal guess (`xs`: N + 1 states, `us`: N controls; typically the
+    /// last solution shifted by [`shift_plan`]) with the last solve's multipliers moved
+    /// forward by `shift` metres (see the module documentation); the last solve must have
+    /// been of this planner's problem. Falls back to the equilibrium start when the warm
+    /// solve stalls. The solution is then in [`Self::states`] and [`Self::controls`].
+    /// Allocates nothing.
+    #[allow(clippy::too_many_arguments)]
+    pub fn replan_warm(
+        &mut self,
+        kappa: &[f64],
+        e_min: &[f64],
+        e_max: &[f64],
+        x0: [f64; NX],
+        (xs, us): (&[[f64; NX]], &[[f64; NU]]),
+        shift: f64,
+        opts: WarmOptions,
+    ) -> Result<WarmReplan, PlanError> {
+        if xs.len() != N + 1 || us.len() != N {
+            let states = xs.len() != N + 1;
+            return Err(PlanError::ReplanLength {
+                field: if states { "states" } else { "controls" },
+                expected: if states { N + 1 } else { N },
+                got: if states { xs.len() } else { us.len() },
+            });
+        }
+        let base = *self.solver.settings();
+        let t0 = std::time::Instant::now();
+        let ds = self.nlp.spec().ds();
+        self.set_window(kappa, e_min, e_max, x0)?;
+        self.shift_duals(shift, ds);
+        self.nlp.set_initial_guess(xs, us);
+        let warm_cap = opts.max_iter.min(base.max_iter);
+        let capped = crate::ip::Settings {
+            max_iter: warm_cap,
+            ..base
+        };
+        self.solver.set_settings(capped).ok();
+        let start = WarmStart {
+            y: &self.warm.y,
+            zl: &self.warm.zl,
+            zu: &self.warm.zu,
+            mu_floor: opts.mu_floor,
+        };
+        let info = self.solver.solve_warm(&mut self.nlp, &start);
+        self.solver.set_settings(base).ok();
+        if info.status.is_success() {
+            self.nlp
+                .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
+            return Ok(WarmReplan {
+                warm_iterations: info.iterations,
+                info,
+                fell_back: false,
+            });
+        }
+        let warm_iterations = info.iterations;
+        let rest = crate::ip::Settings {
+            max_iter: base.max_iter.saturating_sub(warm_iterations).max(1),
+            max_time_s: (base.max_time_s - t0.elapsed().as_secs_f64()).max(1e-9),
+            ..base
+        };
+        self.solver.set_settings(rest).ok();
+        let cold = self.replan(kappa, e_min, e_max, x0, ReplanGuess::Equilibrium);
+        self.solver.set_settings(base).ok();
+        Ok(WarmReplan {
+            info: cold?,
+            warm_iterations,
+            fell_back: true,
+        })
+    }
+
+    /// The last solve's multipliers moved forward by round(`shift` / `ds`) nodes into the
+    /// warm buffers.
+    fn shift_duals(&mut self, shift: f64, ds: f64) {
+        let j = (shift / ds).round().max(0.0) as usize;
+        let ws = self.solver.workspace();
+        let lay = self.nlp.layout();
+        let (n, m) = (ws.n, ws.m);
+        let w = &mut self.warm;
+        for idx in 0..n {
+            let (k, kind) = lay.describe(idx);
+            let src = match kind {
+                VarKind::State(i) => lay.x((k + j).min(N), i),
+                VarKind::Control(i) => lay.u((k + j).min(N - 1), i),
+                VarKind::Stage(i) => lay.w((k + j).min(N - 1), i),
+            };
+            w.zl[idx] = ws.zl[src];
+            w.zu[idx] = ws.zu[src];
+        }
+        for i in 0..m {
+            let info = self.nlp.describe_row(i);
+            let src = match info.kind {
+                RowKind::Initial { .. } => i,
+                kind => {
+                    let node = (info.node + j).min(N - 1);
+                    (w.row_start[node]..w.row_start[node + 1])
+                        .find(|&r| self.nlp.describe_row(r).kind == kind)
+                        .unwrap_or(i)
+                }
+            };
+            w.y[i] = ws.y[src];
+            w.zl[n + i] = ws.zl[n + src];
+            w.zu[n + i] = ws.zu[n + src];
+        }
+    }
+}

@@ -17,6 +17,7 @@ mod out;
 mod paths;
 mod solve;
 mod study;
+mod track;
 
 use std::process::ExitCode;
 
@@ -45,6 +46,9 @@ enum Command {
     /// Reproduce a study of the paper (tables + PNG; `--json` for one JSON object).
     #[command(subcommand)]
     Study(study::StudyCommand),
+    /// Import a track from a raw centerline, or draw one with its corners.
+    #[command(subcommand)]
+    Track(track::TrackCommand),
 }
 
 fn main() -> ExitCode {
@@ -62,6 +66,7 @@ fn main() -> ExitCode {
         Command::Guess(args) => guess::run(args),
         Command::ClosedLoop(args) => closed_loop::run(args),
         Command::Study(command) => study::run(command),
+        Command::Track(command) => track::run(command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

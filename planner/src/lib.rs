@@ -32,6 +32,7 @@ pub mod plan;
 pub mod plot;
 #[cfg(feature = "plot")]
 pub mod plot_track;
+pub mod progress;
 pub mod record;
 pub mod stats;
 #[cfg(feature = "cli")]

@@ -53,6 +53,8 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // A progress bar on stderr for the long commands, only on a terminal and never with --json.
+    planner::progress::install_terminal(std::env::args().any(|a| a == "--json"));
     // No subcommand: solve the built-in default scenario (the oval).
     let command = match cli.command {
         Some(c) => c,

@@ -1,7 +1,7 @@
 //! Importing a raw centerline as a named track of a data root: the smoothed profile CSV,
 //! a copy of the raw file, and the entry of the track index `tracks/tracks.toml`.
 //!
-//! The profile is [`smooth_centerline`]'s (the method of `config/tracks/README.md`), printed
+//! The profile is [`smooth_centerline`](super::smooth_centerline)'s (the method of `config/tracks/README.md`), printed
 //! with the digits of the shipped profiles: s to 0.1 m, kappa to 1e-8 1/m, widths to 1 mm.
 //! Files are written whole or not at all ([`write_atomic`]), the index last, so a failed
 //! import leaves the index as it was.

@@ -30,6 +30,9 @@ pub mod ocp;
 pub mod plan;
 #[cfg(feature = "plot")]
 pub mod plot;
+#[cfg(feature = "plot")]
+pub mod plot_track;
+pub mod progress;
 pub mod record;
 pub mod stats;
 #[cfg(feature = "cli")]

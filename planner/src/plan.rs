@@ -258,6 +258,9 @@ impl<const N: usize> Planner<N> {
             kappa: spec.kappa.clone(),
             e_min: spec.e_min.clone(),
             e_max: spec.e_max.clone(),
+            lane_e_min: spec.e_min.clone(),
+            lane_e_max: spec.e_max.clone(),
+            placement: None,
         }
     }
 }

@@ -129,6 +129,15 @@ pub fn centerline_xy(kappa: &[f64], ds: f64) -> Vec<(f64, f64, f64)> {
     out
 }
 
+/// Poses of the reference path at the nodes as (x, y, heading): in the track's frame for a
+/// horizon placed on a track ([`Trajectory::reference_poses`]), else from (0, 0, 0).
+fn frame(traj: &Trajectory) -> Vec<(f64, f64, f64)> {
+    traj.reference_poses()
+        .into_iter()
+        .map(|[x, y, h]| (x, y, h))
+        .collect()
+}
+
 /// Points at lateral offsets `e` (positive to the left) from the centerline nodes.
 fn offset_xy(center: &[(f64, f64, f64)], e: impl IntoIterator<Item = f64>) -> Polyline {
     center
@@ -140,13 +149,13 @@ fn offset_xy(center: &[(f64, f64, f64)], e: impl IntoIterator<Item = f64>) -> Po
 
 /// The car's CG position at the nodes: centerline + e * left normal.
 pub fn path_xy(traj: &Trajectory) -> Polyline {
-    let center = centerline_xy(&traj.kappa, traj.ds);
+    let center = frame(traj);
     offset_xy(&center, traj.x.iter().map(|x| x[ix::E]))
 }
 
 /// The lane edges as polylines: (right edge at e_min, left edge at e_max).
 pub fn lane_edges_xy(traj: &Trajectory) -> (Polyline, Polyline) {
-    let center = centerline_xy(&traj.kappa, traj.ds);
+    let center = frame(traj);
     (
         offset_xy(&center, traj.e_min.iter().copied()),
         offset_xy(&center, traj.e_max.iter().copied()),
@@ -234,6 +243,8 @@ fn check_consistent(traj: &Trajectory) -> Result<(), PlotError> {
         ("kappa", traj.kappa.len(), n1),
         ("e_min", traj.e_min.len(), n1),
         ("e_max", traj.e_max.len(), n1),
+        ("lane_e_min", traj.lane_e_min.len(), n1),
+        ("lane_e_max", traj.lane_e_max.len(), n1),
         ("u", traj.u.len(), n1 - 1),
     ];
     for (name, got, want) in lens {
@@ -358,7 +369,7 @@ fn draw_top_view<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let center = centerline_xy(&traj.kappa, traj.ds);
+    let center = frame(traj);
     let center_pts: Vec<(f64, f64)> = center.iter().map(|&(x, y, _)| (x, y)).collect();
     let path = path_xy(traj);
     let (right, left) = lane_edges_xy(traj);
@@ -623,40 +634,53 @@ fn outline(center: &[(f64, f64, f64)], traj: &Trajectory, k: usize) -> [(f64, f6
     [(l, w), (l, -w), (-l, -w), (-l, w)].map(|(a, b)| (px + a * c - b * s, py + a * s + b * c))
 }
 
-/// Obstacles as polygons: where a node's bound is tighter than the road's outermost bound,
-/// the excluded strip between them (contiguous nodes form one polygon).
+/// Whether an obstacle blocks node k on the right and on the left: the bound there is
+/// tighter than the lane's bound without obstacles (a bounds override), by more than 1 nm.
+pub fn blocked_nodes(traj: &Trajectory) -> Vec<(bool, bool)> {
+    (0..traj.e_min.len().min(traj.lane_e_min.len()))
+        .map(|k| {
+            (
+                traj.e_min[k] > traj.lane_e_min[k] + 1e-9,
+                traj.e_max[k] < traj.lane_e_max[k] - 1e-9,
+            )
+        })
+        .collect()
+}
+
+/// Obstacles as polygons: at nodes an obstacle blocks ([`blocked_nodes`]), the excluded
+/// strip between the lane's bound and the tightened one (contiguous nodes form one polygon).
 fn obstacle_polygons(center: &[(f64, f64, f64)], traj: &Trajectory) -> Vec<Polyline> {
-    let road_min = traj.e_min.iter().copied().fold(f64::INFINITY, f64::min);
-    let road_max = traj.e_max.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let blocked_at = blocked_nodes(traj);
     let at = |k: usize, e: f64| {
         let (x, y, psi) = center[k];
         (x - e * psi.sin(), y + e * psi.cos())
     };
+    let n = center.len().min(blocked_at.len());
     let mut polys = Vec::new();
     for right in [true, false] {
         let blocked = |k: usize| {
             if right {
-                traj.e_min[k] > road_min + 1e-9
+                blocked_at[k].0
             } else {
-                traj.e_max[k] < road_max - 1e-9
+                blocked_at[k].1
             }
         };
+        let (edge, bound): (&[f64], &[f64]) = if right {
+            (&traj.lane_e_min, &traj.e_min)
+        } else {
+            (&traj.lane_e_max, &traj.e_max)
+        };
         let mut k = 0;
-        while k < center.len() {
+        while k < n {
             if !blocked(k) {
                 k += 1;
                 continue;
             }
             let start = k;
-            while k < center.len() && blocked(k) {
+            while k < n && blocked(k) {
                 k += 1;
             }
-            let (edge, bound): (f64, &[f64]) = if right {
-                (road_min, &traj.e_min)
-            } else {
-                (road_max, &traj.e_max)
-            };
-            let mut poly: Polyline = (start..k).map(|j| at(j, edge)).collect();
+            let mut poly: Polyline = (start..k).map(|j| at(j, edge[j])).collect();
             poly.extend((start..k).rev().map(|j| at(j, bound[j])));
             polys.push(poly);
         }
@@ -677,7 +701,7 @@ pub fn plot_footprint(traj: &Trajectory, path: &Path) -> Result<(), PlotError> {
 fn draw_footprint(root: &Canvas<'_>, traj: &Trajectory) -> Result<(), PlotError> {
     root.fill(&WHITE).map_err(draw_err)?;
     let (top, bottom) = root.split_vertically(560);
-    let center = centerline_xy(&traj.kappa, traj.ds);
+    let center = frame(traj);
     let (right, left) = lane_edges_xy(traj);
     let xs = right.iter().chain(&left).map(|p| p.0);
     let ys = right.iter().chain(&left).map(|p| p.1);
@@ -766,10 +790,8 @@ fn draw_footprint(root: &Canvas<'_>, traj: &Trajectory) -> Result<(), PlotError>
         .draw()
         .map_err(draw_err)?;
     // Obstacle intervals shaded.
-    for (k, (lo, hi)) in traj.e_min.iter().zip(&traj.e_max).enumerate() {
-        let road_min = traj.e_min.iter().copied().fold(f64::INFINITY, f64::min);
-        let road_max = traj.e_max.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if *lo > road_min + 1e-9 || *hi < road_max - 1e-9 {
+    for (k, (r, l)) in blocked_nodes(traj).into_iter().enumerate() {
+        if r || l {
             let s0 = (k as f64 - 0.5).max(0.0) * traj.ds;
             let s1 = ((k as f64 + 0.5) * traj.ds).min(s_max);
             chart

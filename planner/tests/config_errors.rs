@@ -353,16 +353,30 @@ fn segment_fields() {
         msg.ends_with("segments[A].s_start_m = NaN: must be a finite number"),
         "{msg}"
     );
+    // A segment with its own interval count derives its ds; a ds it states is checked.
     let root = TempRoot::new("seg-ds");
     let path = segments_file(&root, "0.0", "n_intervals = 40\n");
+    let spec = load_scenario(&path, Some("B"), vehicle()).unwrap();
+    assert_eq!((spec.n_intervals, spec.ds()), (40, 1.25));
+    let path = segments_file(&root, "0.0", "n_intervals = 40\nds_m = 2.5\n");
     let msg = message(
         load_scenario(&path, Some("B"), vehicle()).unwrap_err(),
         &path,
     );
     assert!(
         msg.contains(
-            "defaults.ds_m = 2.5: must equal defaults.length_m / segments.n_intervals = 1.25"
+            "segments[B].ds_m = 2.5: must equal defaults.length_m / segments.n_intervals = 1.25"
         ),
+        "{msg}"
+    );
+    // A node spacing over 5 m is refused in words.
+    let path = segments_file(&root, "0.0", "length_m = 100.0\nn_intervals = 10\n");
+    let msg = message(
+        load_scenario(&path, Some("B"), vehicle()).unwrap_err(),
+        &path,
+    );
+    assert!(
+        msg.contains("segments[B].length_m = 100: puts the 11 nodes 10.000 m apart; over 5 m the model steps across corners"),
         "{msg}"
     );
     let root = TempRoot::new("seg-track");

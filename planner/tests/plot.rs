@@ -54,6 +54,9 @@ fn synthetic() -> Trajectory {
         kappa: Vec::new(),
         e_min: Vec::new(),
         e_max: Vec::new(),
+        lane_e_min: Vec::new(),
+        lane_e_max: Vec::new(),
+        placement: None,
     };
     let mut t = 0.0;
     for k in 0..=n {
@@ -76,6 +79,8 @@ fn synthetic() -> Trajectory {
         traj.x.push(x);
         traj.e_min.push(-3.5);
         traj.e_max.push(3.5);
+        traj.lane_e_min.push(-3.5);
+        traj.lane_e_max.push(3.5);
         if k < n {
             let mut u = [0.0; NU];
             u[iu::DELTA] = 0.08 * f64::from(u8::from(in_bend)) + 0.02 * (s / 10.0).sin();
@@ -160,4 +165,28 @@ fn footprint_figure_with_an_obstacle_writes_png() {
     // Inconsistent input is an error, not a panic.
     t.e_max.pop();
     assert!(planner::plot::plot_footprint(&t, &png).is_err());
+}
+
+#[test]
+fn only_bounds_overrides_count_as_obstacles_on_a_road_of_varying_width() {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../config");
+    let vehicle = planner::config::load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
+    let blocked = |file: &str, select: &str| {
+        let (spec, layout) =
+            planner::config::load_scenario_layout(&root.join(file), Some(select), vehicle, None)
+                .unwrap();
+        let mut t = synthetic();
+        t.e_min = spec.e_min.clone();
+        t.e_max = spec.e_max.clone();
+        layout.apply(&mut t);
+        planner::plot::blocked_nodes(&t)
+    };
+    // A track segment narrows and widens, but nothing blocks it.
+    assert!(blocked("scenarios/segments.toml", "S01")
+        .iter()
+        .all(|&(r, l)| !r && !l));
+    // The critical scenario's obstacles block nodes, and only on one side at a time.
+    let ca = blocked("scenarios/collision_avoidance.toml", "critical");
+    assert!(ca.iter().any(|&(r, l)| r || l));
+    assert!(ca.iter().filter(|&&(r, l)| r || l).count() < ca.len());
 }

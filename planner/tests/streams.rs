@@ -184,3 +184,30 @@ fn a_recording_that_cannot_take_its_final_name_is_an_error() {
     assert!(mcap.is_dir());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A long command piped into a reader that stops after one line (`trajopt study segments |
+/// head -1`) ends quietly with success, and a piped stderr gets no progress bar.
+#[test]
+fn a_study_piped_into_head_ends_quietly_with_success_and_no_progress_bar() {
+    let dir = temp_dir("study-head");
+    let mut child = trajopt()
+        .args(["study", "segments", "--repeat", "1", "--no-output"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut first = [0u8; 16];
+    std::io::Read::read_exact(&mut stdout, &mut first).unwrap();
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        !err.contains("study segments ["),
+        "progress bar on a pipe: {err}"
+    );
+    assert!(first.starts_with(b"Table II"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

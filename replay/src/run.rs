@@ -207,6 +207,8 @@ fn replay_all(
     budget_ms: f64,
 ) -> Result<Vec<PlanResult>, ReplayError> {
     let mut results = Vec::with_capacity(rec.inputs.len());
+    // Progress is reported between solves, outside the timed section.
+    planner::progress::begin(rec.inputs.len() as u64, "replay");
     for input in &rec.inputs {
         let (spec, settings, guess) = problem_from(input)?;
         if spec.n_intervals != N {
@@ -243,7 +245,9 @@ fn replay_all(
             difference,
             missed: latency_ms > budget_ms,
         });
+        planner::progress::advance(&format!("plan {}", input.seq));
     }
+    planner::progress::end();
     Ok(results)
 }
 

@@ -14,7 +14,11 @@ mod tracks;
 mod vehicle;
 
 pub use error::ConfigError;
-pub use scenario::{data_root_of, list_selections, load_scenario, load_scenario_for_horizon};
+pub use scenario::stretch::{stretch_layout, stretch_spec, StretchDefaults, STRETCH_DEFAULTS};
+pub use scenario::{
+    data_root_of, list_selections, load_scenario, load_scenario_for_horizon, load_scenario_layout,
+    Layout, MAX_NODE_SPACING_M,
+};
 pub use solver::{load_solver, shipped_solver_file, SOLVER_FILE, SOLVER_FILE_MIN_TIME};
 pub use tracks::{load_track_index, Direction, TrackInfo};
 pub use vehicle::load_vehicle;

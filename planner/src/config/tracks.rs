@@ -40,6 +40,9 @@ pub struct TrackInfo {
     pub lap_length: f64,
     /// Driving direction.
     pub direction: Direction,
+    /// Pose of the smoothed centerline at s = 0 in the raw file's frame: x \[m\], y \[m\],
+    /// heading \[rad\] (`start_pose`; absent in a hand-written entry, then the origin).
+    pub start_pose: [f64; 3],
 }
 
 /// A `[[tracks]]` entry as written (shared by `tracks.toml` and segments files).
@@ -51,6 +54,7 @@ pub(crate) struct TrackToml {
     profile_csv: Option<String>,
     lap_length_m: Option<f64>,
     direction: Option<String>,
+    start_pose: Option<Vec<f64>>,
     // Statistics written by make_profiles.py: informational, not used.
     #[allow(dead_code)]
     n_rows: Option<i64>,
@@ -89,12 +93,26 @@ impl TrackToml {
             1 => Direction::Cw,
             _ => Direction::FigureEight,
         };
+        let start_pose = match self.start_pose {
+            None => [0.0; 3],
+            Some(v) => match v.as_slice() {
+                &[x, y, h] if v.iter().all(|c| c.is_finite()) => [x, y, h],
+                _ => {
+                    return Err(f.invalid(
+                        &at("start_pose"),
+                        format!("{v:?}"),
+                        "must be [x_m, y_m, heading_rad], three finite numbers",
+                    ))
+                }
+            },
+        };
         Ok(TrackInfo {
             name,
             profile_csv,
             raw_csv,
             lap_length,
             direction,
+            start_pose,
         })
     }
 }

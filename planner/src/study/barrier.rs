@@ -53,6 +53,7 @@ pub fn run(
     spec.steering_slew_weight = steering_slew_weight;
     let mut planner = Planner::<HORIZON>::new(spec, settings)?;
     let mut out = Vec::with_capacity(BarrierRule::ALL.len());
+    crate::progress::begin(BarrierRule::ALL.len() as u64, "study barrier");
     for rule in BarrierRule::ALL {
         let mut s = settings;
         s.barrier = rule;
@@ -80,7 +81,9 @@ pub fn run(
             max_factorizations_per_iter: info.max_factorizations_per_iter,
             fallback_steps: info.fallback_steps,
         });
+        crate::progress::advance(rule.name());
     }
+    crate::progress::end();
     Ok(out)
 }
 

@@ -125,6 +125,7 @@ pub fn run(
     let names = list_selections(scenario)?;
     let reference = load_reference(&data_root_of(scenario).join(REFERENCE_CSV)).ok();
     let mut runs = Vec::with_capacity(2 * names.len());
+    crate::progress::begin(2 * names.len() as u64, "study segments");
     for name in &names {
         let mut spec = load_scenario_for_horizon(scenario, Some(name), *vehicle, crate::HORIZON)?;
         spec.steering_slew_weight = steering_slew_weight;
@@ -146,6 +147,7 @@ pub fn run(
             let Some(info) = last else {
                 return Err(StudyError::Repeat);
             };
+            crate::progress::advance(&format!("{name} {label}"));
             let traj = planner.trajectory();
             let t_final = traj.t_final();
             let log = planner.solver().log();
@@ -172,6 +174,7 @@ pub fn run(
             });
         }
     }
+    crate::progress::end();
     Ok(SegmentsStudy {
         max_refactorizations: settings.max_refactorizations,
         steering_slew_weight,

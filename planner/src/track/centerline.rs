@@ -21,7 +21,7 @@ const DS_OUT_M: f64 = 1.0;
 /// Parameter step of the arc-length quadrature \[m\].
 const DU_DENSE_M: f64 = 0.02;
 /// Columns of a raw centerline file (given in a `#` comment line upstream).
-const RAW_COLUMNS: [&str; 4] = ["x_m", "y_m", "w_tr_right_m", "w_tr_left_m"];
+pub(crate) const RAW_COLUMNS: [&str; 4] = ["x_m", "y_m", "w_tr_right_m", "w_tr_left_m"];
 /// Coefficients of D^T D for the cyclic third-order forward difference D, offsets 0..=3.
 const PENALTY_STENCIL: [f64; 4] = [20.0, -15.0, 6.0, -1.0];
 /// Half-bandwidth of the cyclic normal matrix.
@@ -326,72 +326,161 @@ fn smoothed_widths(
     (w_right, w_left)
 }
 
+/// What smoothing measured about a centerline (the statistics of the track index).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CenterlineStats {
+    /// Largest |kappa| on a 0.1 m parameter grid [1/m].
+    pub max_abs_kappa: f64,
+    /// Largest |dkappa/ds| between neighbours of that grid [1/m^2].
+    pub max_abs_dkappa_ds: f64,
+    /// Lap integral of the 1 m curvature rows over 2 pi: +1 counter-clockwise, -1
+    /// clockwise, 0 for a figure eight.
+    pub winding: f64,
+    /// Largest distance of a raw point from the smoothed line \[m\].
+    pub max_centerline_shift: f64,
+    /// Smallest left width of the profile \[m\].
+    pub min_w_left: f64,
+    /// Smallest right width of the profile \[m\].
+    pub min_w_right: f64,
+}
+
+/// A raw centerline smoothed: its profile, statistics and the pose at s = 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SmoothedCenterline {
+    /// The 1 m curvature/width profile.
+    pub profile: Profile,
+    /// The statistics of the track index.
+    pub stats: CenterlineStats,
+    /// Position (x, y) \[m\] and heading \[rad\] of the smoothed centerline at s = 0, in the
+    /// raw file's frame.
+    pub start_pose: [f64; 3],
+}
+
+/// Curvature statistics on a 0.1 m parameter grid: (max |kappa|, max |dkappa/ds|), with s
+/// interpolated on the arc-length table `s_dense` (u step `du`).
+fn curvature_stats(spline: &PeriodicSpline, period: f64, s_dense: &[f64], du: f64) -> (f64, f64) {
+    let n_dense = s_dense.len() - 1;
+    let n_fine = (period / 0.1).ceil() as usize;
+    let (mut max_k, mut max_dk) = (0.0_f64, 0.0_f64);
+    let mut prev: Option<(f64, f64)> = None;
+    for i in 0..n_fine {
+        let u = i as f64 * 0.1;
+        let k = spline.curvature(u);
+        let j = ((u / du).floor() as usize).min(n_dense - 1);
+        let s = lerp(s_dense, (j, u / du - j as f64));
+        max_k = max_k.max(k.abs());
+        if let Some((k0, s0)) = prev {
+            max_dk = max_dk.max(((k - k0) / (s - s0)).abs());
+        }
+        prev = Some((k, s));
+    }
+    (max_k, max_dk)
+}
+
+/// Smooths a raw closed centerline CSV (`# x_m,y_m,w_tr_right_m,w_tr_left_m`, the last point
+/// joins the first) into a periodic profile on a 1 m grid, with the index statistics.
+pub fn smooth_centerline(path: &Path) -> Result<SmoothedCenterline, TrackFileError> {
+    let rows = read_rows(path, &RAW_COLUMNS, false)?;
+    smooth_rows(path, &rows)
+}
+
+/// [`smooth_centerline`] of rows already read from `path`.
+pub(crate) fn smooth_rows(
+    path: &Path,
+    rows: &[Row<4>],
+) -> Result<SmoothedCenterline, TrackFileError> {
+    let ChordParameters {
+        points,
+        u_raw,
+        period,
+    } = chord_parameters(path, rows)?;
+    let m = (period / KNOT_SPACING_M).round() as usize;
+    if period > 1.0e6 {
+        return Err(TrackFileError::csv(
+            path,
+            0,
+            format!("closed centerline of {period:.1} m is longer than 1000 km"),
+        ));
+    }
+    if m < 8 || points.len() < 4 {
+        return Err(TrackFileError::csv(
+            path,
+            0,
+            format!(
+                "closed centerline too short ({period:.1} m, {} points) to smooth: \
+                 at least 4 points and 40 m are needed",
+                points.len()
+            ),
+        ));
+    }
+    let spline =
+        PeriodicSpline::fit(period, m, &u_raw, &points, PENALTY_LAMBDA).ok_or_else(|| {
+            TrackFileError::csv(
+                path,
+                0,
+                "smoothing system is singular (degenerate centerline)",
+            )
+        })?;
+    let (s_dense, du) = arc_length(&spline, period);
+    let lap = s_dense[s_dense.len() - 1];
+
+    // Resample curvature at s = 0, 1, 2, ... < lap.
+    let n_out = ((lap - 1e-9) / DS_OUT_M).ceil() as usize;
+    let mut kappa = Vec::with_capacity(n_out);
+    let mut hint = 0;
+    for i in 0..n_out {
+        let (k, t) = locate_walk(&s_dense, i as f64 * DS_OUT_M, &mut hint);
+        let u = (k as f64 + t) * du;
+        kappa.push(spline.curvature(u));
+    }
+
+    let (w_right, w_left) = smoothed_widths(&spline, rows, &points, &u_raw, &s_dense, du, n_out);
+    if let Some(i) = (0..n_out).find(|&i| !kappa[i].is_finite()) {
+        return Err(TrackFileError::csv(
+            path,
+            0,
+            format!("curvature is not finite at s = {i} m (degenerate centerline)"),
+        ));
+    }
+    if let Some(i) = (0..n_out).find(|&i| !(w_right[i] > 0.0 && w_left[i] > 0.0)) {
+        return Err(TrackFileError::csv(
+            path,
+            0,
+            format!("a track width becomes non-positive at s = {i} m after smoothing"),
+        ));
+    }
+    let (max_abs_kappa, max_abs_dkappa_ds) = curvature_stats(&spline, period, &s_dense, du);
+    let max_centerline_shift = u_raw
+        .iter()
+        .zip(&points)
+        .map(|(&u, p)| {
+            let c = spline.eval(u, 0);
+            hypot(p[0] - c[0], p[1] - c[1])
+        })
+        .fold(0.0, f64::max);
+    let stats = CenterlineStats {
+        max_abs_kappa,
+        max_abs_dkappa_ds,
+        winding: kappa.iter().sum::<f64>() * DS_OUT_M / (2.0 * std::f64::consts::PI),
+        max_centerline_shift,
+        min_w_left: w_left.iter().copied().fold(f64::INFINITY, f64::min),
+        min_w_right: w_right.iter().copied().fold(f64::INFINITY, f64::min),
+    };
+    let c0 = spline.eval(0.0, 0);
+    let d0 = spline.eval(0.0, 1);
+    Ok(SmoothedCenterline {
+        profile: Profile::from_parts(DS_OUT_M, lap, kappa, w_right, w_left),
+        stats,
+        start_pose: [c0[0], c0[1], d0[1].atan2(d0[0])],
+    })
+}
+
 impl Profile {
     /// Builds a smooth periodic profile on a 1 m grid from a raw closed centerline CSV
-    /// (`# x_m,y_m,w_tr_right_m,w_tr_left_m`, the last point joins the first).
+    /// (`# x_m,y_m,w_tr_right_m,w_tr_left_m`, the last point joins the first); see
+    /// [`smooth_centerline`].
     pub fn from_centerline(path: &Path) -> Result<Profile, TrackFileError> {
-        let rows = read_rows(path, &RAW_COLUMNS, false)?;
-        let ChordParameters {
-            points,
-            u_raw,
-            period,
-        } = chord_parameters(path, &rows)?;
-        let m = (period / KNOT_SPACING_M).round() as usize;
-        if period > 1.0e6 {
-            return Err(TrackFileError::csv(
-                path,
-                0,
-                format!("closed centerline of {period:.1} m is longer than 1000 km"),
-            ));
-        }
-        if m < 8 || points.len() < 4 {
-            return Err(TrackFileError::csv(
-                path,
-                0,
-                format!(
-                    "closed centerline too short ({period:.1} m, {} points) to smooth",
-                    points.len()
-                ),
-            ));
-        }
-        let spline =
-            PeriodicSpline::fit(period, m, &u_raw, &points, PENALTY_LAMBDA).ok_or_else(|| {
-                TrackFileError::csv(
-                    path,
-                    0,
-                    "smoothing system is singular (degenerate centerline)",
-                )
-            })?;
-        let (s_dense, du) = arc_length(&spline, period);
-        let lap = s_dense[s_dense.len() - 1];
-
-        // Resample curvature at s = 0, 1, 2, ... < lap.
-        let n_out = ((lap - 1e-9) / DS_OUT_M).ceil() as usize;
-        let mut kappa = Vec::with_capacity(n_out);
-        let mut hint = 0;
-        for i in 0..n_out {
-            let (k, t) = locate_walk(&s_dense, i as f64 * DS_OUT_M, &mut hint);
-            let u = (k as f64 + t) * du;
-            kappa.push(spline.curvature(u));
-        }
-
-        let (w_right, w_left) =
-            smoothed_widths(&spline, &rows, &points, &u_raw, &s_dense, du, n_out);
-        if let Some(i) = (0..n_out).find(|&i| !kappa[i].is_finite()) {
-            return Err(TrackFileError::csv(
-                path,
-                0,
-                format!("curvature is not finite at s = {i} m (degenerate centerline)"),
-            ));
-        }
-        if let Some(i) = (0..n_out).find(|&i| !(w_right[i] > 0.0 && w_left[i] > 0.0)) {
-            return Err(TrackFileError::csv(
-                path,
-                0,
-                format!("a track width becomes non-positive at s = {i} m after smoothing"),
-            ));
-        }
-        Ok(Profile::from_parts(DS_OUT_M, lap, kappa, w_right, w_left))
+        smooth_centerline(path).map(|s| s.profile)
     }
 }
 

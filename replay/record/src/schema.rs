@@ -1,5 +1,8 @@
 //! Topics, schema names and the `ros2msg` schema texts of the recorded channels.
 
+/// MCAP profile of a recording: ROS 2 (schemas in `ros2msg`, messages in CDR with its
+/// encapsulation header), so ROS 2 bag readers accept the file.
+pub const PROFILE: &str = "ros2";
 /// Topic of the planner inputs.
 pub const INPUT_TOPIC: &str = "/planner/input";
 /// Topic of the planner outputs.

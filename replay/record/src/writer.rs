@@ -90,7 +90,7 @@ impl PlanWriter {
         };
         let mut w = WriteOptions::new()
             .compression(None)
-            .profile("")
+            .profile(PROFILE)
             .chunk_size(Some(CHUNK_BYTES))
             .disable_seeking(true)
             .create(NoSeek::new(sink))

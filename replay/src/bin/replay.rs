@@ -88,6 +88,8 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // A progress bar on stderr while replaying, only on a terminal and never with --json.
+    planner::progress::install_terminal(std::env::args().any(|a| a == "--json"));
     match dispatch(cli.command) {
         Ok(code) => code,
         Err(msg) => {

@@ -201,7 +201,10 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
     let (mut planner, mut tracker) = spawn_pair(&args, &exes, &prefix)?;
     // Simulated time runs at wall-clock speed; the first plan may take a while on a loaded machine.
     let limit = Duration::from_secs_f64(args.duration_s + 180.0);
-    let (tracker_ok, tracker_out) = wait_child(&mut tracker, limit)?;
+    planner::progress::begin(0, "closed loop: driving");
+    let waited = wait_child(&mut tracker, limit);
+    planner::progress::end();
+    let (tracker_ok, tracker_out) = waited?;
     // Stop the planner by closing its stdin.
     if let Some(c) = planner.0.as_mut() {
         drop(c.stdin.take());

@@ -17,6 +17,7 @@ mod out;
 mod paths;
 mod solve;
 mod study;
+mod track;
 
 use std::process::ExitCode;
 
@@ -45,10 +46,15 @@ enum Command {
     /// Reproduce a study of the paper (tables + PNG; `--json` for one JSON object).
     #[command(subcommand)]
     Study(study::StudyCommand),
+    /// Import a track from a raw centerline, or draw one with its corners.
+    #[command(subcommand)]
+    Track(track::TrackCommand),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // A progress bar on stderr for the long commands, only on a terminal and never with --json.
+    planner::progress::install_terminal(std::env::args().any(|a| a == "--json"));
     // No subcommand: solve the built-in default scenario (the oval).
     let command = match cli.command {
         Some(c) => c,
@@ -62,6 +68,7 @@ fn main() -> ExitCode {
         Command::Guess(args) => guess::run(args),
         Command::ClosedLoop(args) => closed_loop::run(args),
         Command::Study(command) => study::run(command),
+        Command::Track(command) => track::run(command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use plan_record::{now_ns, PlanInput, Record, Recorder};
-use planner::config::{load_scenario_for_horizon, load_solver, load_vehicle};
+use planner::config::{load_scenario_layout, load_solver, load_vehicle, Layout};
 use planner::guess::GuessKind;
 use planner::ip::{Nlp, Settings, SolveInfo};
 use planner::ocp::OcpSpec;
@@ -26,6 +26,8 @@ pub struct SolveArgs {
     /// Segment or scenario name inside a multi-entry file (e.g. S01, critical).
     #[arg(long)]
     segment: Option<String>,
+    #[command(flatten)]
+    stretch: crate::track::StretchArgs,
     /// Vehicle file.
     #[arg(long, default_value = "config/vehicles/lc500.toml")]
     vehicle: PathBuf,
@@ -80,6 +82,7 @@ pub struct SolveArgs {
 /// What a solve acts on: the files loaded and the command-line overrides applied.
 struct Inputs {
     spec: OcpSpec,
+    layout: Layout,
     settings: Settings,
     solver_path: PathBuf,
     guess: GuessKind,
@@ -102,6 +105,7 @@ pub fn run(args: SolveArgs) -> Result<(), String> {
         return Err("--repeat must be at least 1".into());
     }
     let inputs = load_inputs(&args)?;
+    let layout = inputs.layout.clone();
     let saturation = inputs.spec.enforce_tire_saturation;
     let slew = inputs.spec.steering_slew_weight;
     let settings = inputs.settings;
@@ -129,13 +133,18 @@ pub fn run(args: SolveArgs) -> Result<(), String> {
     // up to it. Sorts `times` for `solve_ms_all`.
     let solve_ms = median(&mut repeats.times);
     let phase_medians = repeats.phases.each_mut().map(|v| median(v));
-    let traj = planner.trajectory();
+    let mut traj = planner.trajectory();
+    layout.clone().apply(&mut traj);
     let name = planner.spec().name.clone();
     let worst = worst_rows(&mut planner, 5);
     let files = if args.no_output {
         Vec::new()
     } else {
-        write_outputs(&args.out_dir, &name, &traj)?
+        let mut files = write_outputs(&args.out_dir, &name, &traj)?;
+        if let Some(track) = &layout.track {
+            files.push(crate::track::draw_plan(track, &traj, &args.out_dir)?);
+        }
+        files
     };
     let report = Report {
         args: &args,
@@ -161,13 +170,16 @@ pub fn run(args: SolveArgs) -> Result<(), String> {
 /// the scenario must have the horizon this build solves.
 fn load_inputs(args: &SolveArgs) -> Result<Inputs, String> {
     let vehicle = load_vehicle(&resolve(&args.vehicle)).map_err(|e| e.to_string())?;
-    let mut spec = load_scenario_for_horizon(
-        &resolve(&args.scenario),
-        args.segment.as_deref(),
-        vehicle,
-        HORIZON,
-    )
-    .map_err(|e| e.to_string())?;
+    let (mut spec, layout) = match args.stretch.load(vehicle)? {
+        Some(stretch) => stretch,
+        None => load_scenario_layout(
+            &resolve(&args.scenario),
+            args.segment.as_deref(),
+            vehicle,
+            Some(HORIZON),
+        )
+        .map_err(|e| e.to_string())?,
+    };
     if let Some(sat) = args.tire_saturation {
         spec.enforce_tire_saturation = matches!(sat, OnOff::On);
     }
@@ -196,6 +208,7 @@ fn load_inputs(args: &SolveArgs) -> Result<Inputs, String> {
     }
     Ok(Inputs {
         spec,
+        layout,
         settings,
         solver_path,
         guess: args.guess.kind(),

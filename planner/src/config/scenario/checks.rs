@@ -28,13 +28,19 @@ pub(super) fn slew_weight(f: Fields<'_>, v: Option<f64>, field: &str) -> Result<
     Ok(w)
 }
 
-/// Validated horizon: (length, N), N equal to the required horizon if `f` names one. `ds`
-/// is a check value: length / N within 1e-9 relative.
+/// Largest node spacing length / N a horizon may have \[m\]. The implicit-Euler steps
+/// treat curvature, bounds and controls as constant over one spacing; beyond a few metres
+/// a step jumps across corner entries and the plan describes no real drive.
+pub const MAX_NODE_SPACING_M: f64 = 5.0;
+
+/// Validated horizon: (length, N), N equal to the required horizon if `f` names one, and
+/// the node spacing length / N at most [`MAX_NODE_SPACING_M`]. `ds`, when given, is a check
+/// value: length / N within 1e-9 relative.
 pub(super) fn horizon(
     f: Fields<'_>,
     length: (Option<f64>, &str),
     n: (Option<i64>, &str),
-    ds: (Option<f64>, &str),
+    ds: Option<(Option<f64>, &str)>,
 ) -> Result<(f64, usize), ConfigError> {
     let l = f.pos(length.0, length.1)?;
     let n_int = f.count(n.0, n.1)?;
@@ -45,16 +51,32 @@ pub(super) fn horizon(
             format!("must be {want}, the horizon N the planner is built for"),
         ));
     }
-    let ds_v = f.pos(ds.0, ds.1)?;
     let want = l / n_int as f64;
-    if (ds_v - want).abs() > 1e-9 * want {
-        return Err(f.invalid(
-            ds.1,
-            ds_v,
-            format!("must equal {} / {} = {want}", length.1, n.1),
-        ));
+    if let Some(ds) = ds {
+        let ds_v = f.pos(ds.0, ds.1)?;
+        if (ds_v - want).abs() > 1e-9 * want {
+            return Err(f.invalid(
+                ds.1,
+                ds_v,
+                format!("must equal {} / {} = {want}", length.1, n.1),
+            ));
+        }
+    }
+    if want > MAX_NODE_SPACING_M {
+        return Err(f.invalid(length.1, l, spacing_refusal(want, n_int)));
     }
     Ok((l, n_int))
+}
+
+/// Why a horizon with node spacing `ds` over `n` intervals is refused, in words.
+pub(crate) fn spacing_refusal(ds: f64, n: usize) -> String {
+    format!(
+        "puts the {} nodes {ds:.3} m apart; over {MAX_NODE_SPACING_M} m the model steps across \
+         corners with one curvature, bound and control per step and the plan is meaningless \
+         (keep length_m at most {} m for N = {n}, or plan a long stretch as several horizons)",
+        n + 1,
+        MAX_NODE_SPACING_M * n as f64
+    )
 }
 
 /// Validated speed bounds (v_min > 0, v_max > v_min).

@@ -11,14 +11,51 @@ mod schema;
 mod segments;
 mod select;
 mod single;
+pub(super) mod stretch;
 
 use super::fields::{parse_toml, read_text, Fields};
 use super::ConfigError;
 use crate::model::VehicleParams;
 use crate::ocp::OcpSpec;
+use crate::trajectory::TrackPlacement;
 use schema::{ObstacleFile, SegmentsFile};
 use select::names;
 use std::path::{Path, PathBuf};
+
+pub use checks::MAX_NODE_SPACING_M;
+
+/// What a scenario says beyond its OCP, for drawing and exporting its plan: the lane
+/// without obstacles and, for a stretch of a closed track, where the horizon lies on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// Right bound of the lane before bounds overrides, at every node \[m\].
+    pub lane_e_min: Vec<f64>,
+    /// Left bound of the lane before bounds overrides, at every node \[m\].
+    pub lane_e_max: Vec<f64>,
+    /// Where the horizon lies on its track, if it was cut from one.
+    pub placement: Option<TrackPlacement>,
+    /// That track's entry (files, lap length, start pose).
+    pub track: Option<super::TrackInfo>,
+}
+
+impl Layout {
+    /// The layout of a spec without obstacles, off any track.
+    pub fn of(spec: &OcpSpec) -> Self {
+        Layout {
+            lane_e_min: spec.e_min.clone(),
+            lane_e_max: spec.e_max.clone(),
+            placement: None,
+            track: None,
+        }
+    }
+
+    /// Puts the layout into `traj` (the lane and placement of its scenario).
+    pub fn apply(self, traj: &mut crate::trajectory::Trajectory) {
+        traj.lane_e_min = self.lane_e_min;
+        traj.lane_e_max = self.lane_e_max;
+        traj.placement = self.placement;
+    }
+}
 
 /// The data root of a scenario file: the parent of the folder holding it
 /// (`config/scenarios/oval.toml` → `config`). Paths inside scenario files resolve against it.
@@ -123,11 +160,32 @@ pub fn load_scenario_for_horizon(
     load(f, select, vehicle)
 }
 
+/// [`load_scenario`] (or, with `n_intervals`, [`load_scenario_for_horizon`]) with the
+/// scenario's [`Layout`].
+pub fn load_scenario_layout(
+    path: &Path,
+    select: Option<&str>,
+    vehicle: VehicleParams,
+    n_intervals: Option<usize>,
+) -> Result<(OcpSpec, Layout), ConfigError> {
+    let mut f = Fields::new(path);
+    f.horizon = n_intervals;
+    load_with_layout(f, select, vehicle)
+}
+
 fn load(
     f: Fields<'_>,
     select: Option<&str>,
     vehicle: VehicleParams,
 ) -> Result<OcpSpec, ConfigError> {
+    load_with_layout(f, select, vehicle).map(|(spec, _)| spec)
+}
+
+fn load_with_layout(
+    f: Fields<'_>,
+    select: Option<&str>,
+    vehicle: VehicleParams,
+) -> Result<(OcpSpec, Layout), ConfigError> {
     let path = f.file;
     let text = read_text(path)?;
     match kind_of(f, &text)? {

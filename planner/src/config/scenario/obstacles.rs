@@ -4,6 +4,7 @@
 use super::checks::{curvature, finish, horizon, objective, slew_weight, speeds};
 use super::schema::ObstacleFile;
 use super::select::pick;
+use super::Layout;
 use crate::config::fields::Fields;
 use crate::config::ConfigError;
 use crate::model::VehicleParams;
@@ -16,7 +17,7 @@ pub(super) fn load(
     file: ObstacleFile,
     select: Option<&str>,
     vehicle: VehicleParams,
-) -> Result<OcpSpec, ConfigError> {
+) -> Result<(OcpSpec, Layout), ConfigError> {
     let entries = file.scenarios.unwrap_or_default();
     let (name, sc) = pick(
         f,
@@ -33,7 +34,7 @@ pub(super) fn load(
         f,
         (c.horizon_length_m, "common.horizon_length_m"),
         (c.n_intervals, "common.n_intervals"),
-        (c.ds_m, "common.ds_m"),
+        Some((c.ds_m, "common.ds_m")),
     )?;
     let kappa = f.num(c.kappa_1pm, "common.kappa_1pm")?;
     let e_min = f.num(c.road_e_min_m, "common.road_e_min_m")?;
@@ -89,8 +90,14 @@ pub(super) fn load(
         });
     }
     let mut road = Road::uniform(length, n, kappa, e_min, e_max);
+    let layout = Layout {
+        lane_e_min: road.e_min.clone(),
+        lane_e_max: road.e_max.clone(),
+        placement: None,
+        track: None,
+    };
     road.apply_overrides(&overrides);
-    finish(
+    let spec = finish(
         f,
         name,
         length,
@@ -99,5 +106,6 @@ pub(super) fn load(
         (sat, slew),
         (c.initial_state, "common.initial_state"),
         vehicle,
-    )
+    )?;
+    Ok((spec, layout))
 }

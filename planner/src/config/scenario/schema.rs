@@ -20,6 +20,24 @@ pub(super) struct InitialStateToml {
     pub(super) dFz_N: Option<f64>,
 }
 
+impl InitialStateToml {
+    /// The free initial state (`{ mode = "free" }`).
+    pub(super) fn free() -> Self {
+        InitialStateToml {
+            mode: Some("free".to_string()),
+            s_m: None,
+            t_s: None,
+            V_mps: None,
+            e_m: None,
+            beta_rad: None,
+            r_radps: None,
+            dpsi_rad: None,
+            V_wr_mps: None,
+            dFz_N: None,
+        }
+    }
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct SingleFile {

@@ -5,12 +5,15 @@ use super::checks::{finish, horizon, objective, slew_weight, speeds};
 use super::data_root_of;
 use super::schema::SegmentsFile;
 use super::select::pick;
+use super::Layout;
 use crate::config::fields::Fields;
 use crate::config::tracks::TrackInfo;
 use crate::config::ConfigError;
 use crate::model::VehicleParams;
 use crate::ocp::OcpSpec;
+use crate::track::map::TrackMap;
 use crate::track::{Profile, Segment};
+use crate::trajectory::TrackPlacement;
 
 /// The spec of the selected segment of a segments file.
 pub(super) fn load(
@@ -18,7 +21,7 @@ pub(super) fn load(
     file: SegmentsFile,
     select: Option<&str>,
     vehicle: VehicleParams,
-) -> Result<OcpSpec, ConfigError> {
+) -> Result<(OcpSpec, Layout), ConfigError> {
     let entries = file.segments.unwrap_or_default();
     let (name, seg) = pick(
         f,
@@ -32,6 +35,9 @@ pub(super) fn load(
 
     let d = f.req(file.defaults, "defaults")?;
     objective(f, d.objective.as_deref(), "defaults.objective")?;
+    // A segment with its own length or interval count derives ds from them unless it
+    // states its own ds_m; the defaults' ds_m checks only the defaults' horizon.
+    let own_horizon = seg.length_m.is_some() || seg.n_intervals.is_some();
     let (length, n) = horizon(
         f,
         seg.length_m.map_or((d.length_m, "defaults.length_m"), |v| {
@@ -41,8 +47,11 @@ pub(super) fn load(
             .map_or((d.n_intervals, "defaults.n_intervals"), |v| {
                 (Some(v), "segments.n_intervals")
             }),
-        seg.ds_m
-            .map_or((d.ds_m, "defaults.ds_m"), |v| (Some(v), "segments.ds_m")),
+        match (seg.ds_m, own_horizon) {
+            (Some(v), _) => Some((Some(v), "segments.ds_m")),
+            (None, false) => Some((d.ds_m, "defaults.ds_m")),
+            (None, true) => None,
+        },
     )
     .map_err(|e| in_segment(e, &name))?;
     let (v_min, v_max) = speeds(
@@ -91,7 +100,8 @@ pub(super) fn load(
         n_intervals: n,
     }
     .sample(&profile, margin);
-    finish(
+    let placement = placement(track, &profile, s_start);
+    let spec = finish(
         f,
         name,
         length,
@@ -100,7 +110,21 @@ pub(super) fn load(
         (sat, slew),
         (d.initial_state, "defaults.initial_state"),
         vehicle,
-    )
+    )?;
+    let mut layout = Layout::of(&spec);
+    layout.placement = Some(placement);
+    Ok((spec, layout))
+}
+
+/// Where a horizon starting at track arc length `s_start` lies on `track`.
+pub(super) fn placement(track: &TrackInfo, profile: &Profile, s_start: f64) -> TrackPlacement {
+    let map = TrackMap::new(profile, track.start_pose);
+    TrackPlacement {
+        track: track.name.clone(),
+        s_start: s_start.rem_euclid(profile.lap_length()),
+        lap_length: profile.lap_length(),
+        origin: map.pose_at(s_start),
+    }
 }
 
 /// Rewrites a `segments.key` field to `segments[name].key`.

@@ -15,7 +15,7 @@ pub(super) fn load(
     file: SingleFile,
     select: Option<&str>,
     vehicle: VehicleParams,
-) -> Result<OcpSpec, ConfigError> {
+) -> Result<(OcpSpec, super::Layout), ConfigError> {
     let name = f.req(file.name, "name")?;
     if let Some(s) = select {
         if s != name {
@@ -35,7 +35,7 @@ pub(super) fn load(
         f,
         (h.length_m, "horizon.length_m"),
         (h.n_intervals, "horizon.n_intervals"),
-        (h.ds_m, "horizon.ds_m"),
+        Some((h.ds_m, "horizon.ds_m")),
     )?;
     let t = f.req(file.track, "track")?;
     let raw_pieces = f.req(t.kappa_pieces, "track.kappa_pieces")?;
@@ -95,6 +95,10 @@ pub(super) fn load(
         (file.initial_state, "initial_state"),
         vehicle,
     )
+    .map(|spec| {
+        let layout = super::Layout::of(&spec);
+        (spec, layout)
+    })
 }
 
 /// Checks the optional oval geometry: lap length = 2 straight + 2 pi radius.

@@ -142,6 +142,11 @@ fn header(cfg: &PaperConfig, elapsed: f64) -> String {
     );
     let _ = writeln!(
         s,
+        "Figures: `{}` (not committed; the command writes them), linked relative to this file.\n",
+        cfg.out_dir.display()
+    );
+    let _ = writeln!(
+        s,
         "**Conditions that differ from the paper's:** tracks `{}` / `{}` (the paper's 260 m oval \
          and its ten 250 m segments, rebuilt from its data), vehicle `{}`, this project's \
          interior-point solver (`{}`, barrier rule `{}`; the paper: KNITRO, IPOPT, SNOPT through \

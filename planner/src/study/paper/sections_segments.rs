@@ -181,7 +181,11 @@ pub(super) fn barrier(
         cfg.repeat(),
         0.0,
     )?;
-    let mut s = table_iv(cfg, &oval, &by_rule);
+    let mut bare = cfg.settings;
+    bare.mu_floor_factor = 0.0;
+    bare.mu_max_decrease = 0.0;
+    let oval_bare = crate::study::barrier::run(&cfg.oval, None, &cfg.vehicle, bare, 1, 0.0)?;
+    let mut s = table_iv(cfg, &oval, &oval_bare, &by_rule);
     s += &table_iii(cfg, &by_rule);
     s += &inertia(&by_rule);
     Ok(s)
@@ -191,6 +195,7 @@ pub(super) fn barrier(
 fn table_iv(
     cfg: &PaperConfig,
     oval: &[crate::study::barrier::BarrierRun],
+    oval_bare: &[crate::study::barrier::BarrierRun],
     by_rule: &[(BarrierRule, Vec<StartRun>)],
 ) -> String {
     let mut s = String::new();
@@ -198,15 +203,18 @@ fn table_iv(
     let _ = writeln!(
         s,
         "The oval from the equilibrium guess with each rule (median of {} solve(s)) against \
-         KNITRO's, and each rule's total over the 51 free starts (one solve each).\n",
+         KNITRO's, the same without the mu floor and the 10x decrease cap \
+         (`mu_floor_factor = 0`, `mu_max_decrease = 0`; the monotone fallback stays), and each \
+         rule's total over the 51 free starts (one solve each).\n",
         cfg.repeat()
     );
     let _ = writeln!(
         s,
-        "| rule | oval: status | iter | ms | paper: iter | paper: result | 51 starts: iterations | optimal |\n|---|---|---|---|---|---|---|---|"
+        "| rule | oval: status | iter | ms | without floor and cap: status | iter | paper: iter | paper: result | 51 starts: iterations | optimal |\n|---|---|---|---|---|---|---|---|---|---|"
     );
     for r in oval {
         let paper = published::TABLE_IV.iter().find(|p| p.0 == r.barrier);
+        let bare = oval_bare.iter().find(|b| b.barrier == r.barrier);
         let starts = by_rule.iter().find(|(rule, _)| rule.name() == r.barrier);
         let (total, ok) = starts.map_or(("-".to_string(), "-".to_string()), |(_, runs)| {
             (
@@ -220,11 +228,13 @@ fn table_iv(
         });
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.1} | {} | {} | {total} | {ok} |",
+            "| {} | {} | {} | {:.1} | {} | {} | {} | {} | {total} | {ok} |",
             r.barrier,
             r.status,
             r.iterations,
             r.median_ms,
+            bare.map_or("-", |b| b.status),
+            bare.map_or("-".into(), |b| b.iterations.to_string()),
             paper.map_or("-".into(), |p| p.1.to_string()),
             paper.map_or("(not in the paper)", |p| if p.2 {
                 "optimal"

@@ -144,3 +144,45 @@ pub fn violation_both<const N: usize>(
     }
     (scaled, phys, at)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::guess::{equilibrium, fill_equilibrium};
+    use crate::ip::{Settings, Solver};
+    use crate::model::{NU, NX};
+    use crate::ocp::fixtures;
+
+    #[test]
+    fn the_distance_to_the_last_iterate_is_the_euclidean_norm_and_ends_at_zero() {
+        let it = vec![vec![3.0, 4.0], vec![0.0, 1.0], vec![0.0, 0.0]];
+        assert_eq!(distances_to_last(&it), vec![5.0, 1.0, 0.0]);
+        assert!(distances_to_last(&[]).is_empty());
+    }
+
+    #[test]
+    fn the_recorder_keeps_one_point_per_iteration_from_the_start_to_the_returned_point() {
+        const N: usize = 100;
+        let spec = fixtures::oval_spec();
+        let eq = equilibrium(&spec.vehicle, spec.v_min, spec.v_max, 15.0).expect("equilibrium");
+        let (mut xs, mut us) = (vec![[0.0; NX]; N + 1], vec![[0.0; NU]; N]);
+        fill_equilibrium(&eq, spec.ds(), None, &mut xs, &mut us);
+        let mut nlp = ImplicitEulerNlp::<N>::new(spec).expect("nlp");
+        nlp.set_initial_guess(&xs, &us);
+        let settings = Settings {
+            max_iter: 4,
+            ..Settings::default()
+        };
+        let mut solver = Solver::new(&nlp, settings).expect("solver");
+        let mut rec = Recorder::new(&mut nlp);
+        let info = solver.solve(&mut rec);
+        assert_eq!(info.iterations, 4);
+        // The start (iteration 0), the points of iterations 1..=4 and, when the solver
+        // returns an earlier (best) iterate, that point once more.
+        let restored = usize::from(info.best_iterate);
+        assert_eq!(rec.iterates.len(), 5 + restored, "{:?}", info.status);
+        assert_ne!(rec.iterates[0], rec.iterates[1]);
+        // The returned point (the last or the best iterate) is one of the recorded ones.
+        assert!(rec.iterates.iter().any(|z| z.as_slice() == solver.x()));
+    }
+}

@@ -67,6 +67,10 @@ def parse_args():
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--solvers", default="ipopt,fatrop")
     ap.add_argument("--no-jit", action="store_true")
+    ap.add_argument("--steering-slew-weight", default=None,
+                    help="passed to trajopt solve (0: the paper's pure minimum time)")
+    ap.add_argument("--mu-strategy", default="monotone", choices=["monotone", "adaptive"],
+                    help="IPOPT's barrier rule (the paper's Table III: adaptive)")
     return ap.parse_args()
 
 
@@ -149,6 +153,8 @@ def trajopt_run(args, case, out_dir):
     nodes), which it writes once after the solves."""
     path, segment = scenario_of(args, case)
     base = [args.trajopt, "solve", "--vehicle", args.vehicle, "--scenario", path]
+    if args.steering_slew_weight is not None:
+        base += ["--steering-slew-weight", str(args.steering_slew_weight)]
     if segment:
         base += ["--segment", segment]
     def run(extra):
@@ -325,7 +331,7 @@ def make_nlp(p, n, name, args):
     if name == "ipopt":
         nlp.opti.solver("ipopt", {"expand": True, "print_time": False, "detect_simple_bounds": True, **jit},
                         {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0, "sb": "yes",
-                         "linear_solver": "mumps"})
+                         "linear_solver": "mumps", "mu_strategy": args.mu_strategy})
     else:
         nlp.opti.solver("fatrop", {"expand": True, "print_time": False, "structure_detection": "auto",
                                    "fatrop": {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0},

@@ -17,3 +17,19 @@ pub fn avx2_available() -> bool {
         false
     }
 }
+
+/// The CPU's model name and logical core count, e.g. "AMD EPYC 7B13, 2 logical cores"
+/// (from `/proc/cpuinfo` on Linux; "unknown CPU" where it cannot be read). For reports.
+pub fn model_name() -> String {
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".to_string());
+    format!("{model}, {cores} logical cores")
+}

@@ -108,8 +108,9 @@ fn barrier_index(b: BarrierRule) -> f64 {
         BarrierRule::Fullmpc => 1.0,
         BarrierRule::Dampmpc => 2.0,
         BarrierRule::Loqo => 3.0,
-        BarrierRule::Adaptive => 4.0,
+        BarrierRule::Quality => 4.0,
         BarrierRule::Probing => 5.0,
+        BarrierRule::Adaptive => 6.0,
     }
 }
 
@@ -173,13 +174,14 @@ fn int_field(v: &[f64; SETTINGS_LEN], i: usize, max: usize) -> Result<usize, (us
 
 /// The settings from the recorded array; errors give the index of the bad entry.
 fn settings_from_array(v: &[f64; SETTINGS_LEN]) -> Result<Settings, (usize, String)> {
-    let barrier = match int_field(v, 12, 5)? {
+    let barrier = match int_field(v, 12, 6)? {
         0 => BarrierRule::Monotone,
         1 => BarrierRule::Fullmpc,
         2 => BarrierRule::Dampmpc,
         3 => BarrierRule::Loqo,
-        4 => BarrierRule::Adaptive,
-        _ => BarrierRule::Probing,
+        4 => BarrierRule::Quality,
+        5 => BarrierRule::Probing,
+        _ => BarrierRule::Adaptive,
     };
     let globalization = match int_field(v, 13, 1)? {
         0 => Globalization::Filter,

@@ -355,7 +355,7 @@ fn study_barrier_json_has_every_rule() {
     names.sort_unstable();
     assert_eq!(
         names,
-        ["adaptive", "dampmpc", "fullmpc", "loqo", "monotone", "probing"]
+        ["adaptive", "dampmpc", "fullmpc", "loqo", "monotone", "probing", "quality"]
     );
     for r in runs {
         for key in [

@@ -10,6 +10,11 @@ use crate::elementary::{exp, ln, pow};
 /// smaller floor adds a subproblem whose first step overshoots.
 pub const MU_FLOOR_TOL_FRACTION: f64 = 0.5;
 
+/// Centring fraction of the complementarity-gap rule (`adaptive`): mu = GAP_SIGMA s^T z / m,
+/// the usual fixed sigma of primal-dual methods (Nocedal & Wright 2006, Sec. 14.2;
+/// Nocedal, Waechter, Waltz 2009, Sec. 2).
+pub const GAP_SIGMA: f64 = 0.1;
+
 /// Monotone (Fiacco-McCormick) decrease: mu <- max(tol/2, min(kappa mu, mu^theta))
 /// (Waechter & Biegler 2006, eq. 7; IPOPT uses kappa = 0.2, theta = 1.5; the floor is
 /// [`MU_FLOOR_TOL_FRACTION`]).

@@ -21,7 +21,12 @@ pub enum BarrierRule {
     Loqo,
     /// Quality-function oracle: mu = sigma * average complementarity, with sigma minimizing
     /// a merit of the linearized KKT residuals after the step d_aff + sigma d_cen (golden
-    /// section, capped evaluations; Nocedal, Waechter, Waltz 2009, Sec. 4).
+    /// section, capped evaluations; Nocedal, Waechter, Waltz 2009, Sec. 4; KNITRO's
+    /// "quality").
+    Quality,
+    /// KNITRO's "adaptive": mu from the complementarity gap alone, a fixed fraction
+    /// [`crate::ip::barrier::GAP_SIGMA`] of the average complementarity s^T z / m at every
+    /// iteration (the gap rule of Nocedal, Waechter, Waltz 2009, Sec. 2).
     Adaptive,
     /// Mehrotra probing: an affine-scaling probe gives mu = (mu_aff / mu_avg)^3 mu_avg, then
     /// a plain Newton step with that mu, no corrector (Byrd, Nocedal, Waltz 2006, KNITRO).
@@ -36,18 +41,21 @@ impl BarrierRule {
             BarrierRule::Fullmpc => "fullmpc",
             BarrierRule::Dampmpc => "dampmpc",
             BarrierRule::Loqo => "loqo",
+            BarrierRule::Quality => "quality",
             BarrierRule::Adaptive => "adaptive",
             BarrierRule::Probing => "probing",
         }
     }
 
-    /// Parses a rule name (`monotone`, `adaptive`, `probing`, `loqo`, `fullmpc`, `dampmpc`).
+    /// Parses a rule name (`dampmpc`, `probing`, `fullmpc`, `adaptive`, `quality`,
+    /// `monotone`, `loqo`).
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "monotone" => Some(BarrierRule::Monotone),
             "fullmpc" => Some(BarrierRule::Fullmpc),
             "dampmpc" => Some(BarrierRule::Dampmpc),
             "loqo" => Some(BarrierRule::Loqo),
+            "quality" => Some(BarrierRule::Quality),
             "adaptive" => Some(BarrierRule::Adaptive),
             "probing" => Some(BarrierRule::Probing),
             _ => None,
@@ -55,13 +63,14 @@ impl BarrierRule {
     }
 
     /// All implemented rules (the order of the paper's Table IV, then ours).
-    pub const ALL: [BarrierRule; 6] = [
+    pub const ALL: [BarrierRule; 7] = [
         BarrierRule::Dampmpc,
-        BarrierRule::Fullmpc,
-        BarrierRule::Loqo,
-        BarrierRule::Monotone,
-        BarrierRule::Adaptive,
         BarrierRule::Probing,
+        BarrierRule::Fullmpc,
+        BarrierRule::Adaptive,
+        BarrierRule::Quality,
+        BarrierRule::Monotone,
+        BarrierRule::Loqo,
     ];
 }
 
@@ -116,9 +125,11 @@ pub struct Settings {
     pub barrier: BarrierRule,
     /// Step acceptance.
     pub globalization: Globalization,
-    /// Adaptive rules keep mu >= this factor times min(1, KKT error).
+    /// Safeguard of the free rules: mu >= this factor times min(1, KKT error); 0 switches
+    /// the floor off (the rules as published).
     pub mu_floor_factor: f64,
-    /// Adaptive rules keep mu >= this fraction of the previous iteration's mu.
+    /// Safeguard of the free rules: mu >= this fraction of the previous iteration's mu (at
+    /// most a 10x decrease with 0.1); 0 switches the cap off (the rules as published).
     pub mu_max_decrease: f64,
     /// Initial barrier parameter (monotone rule).
     pub mu_init: f64,
@@ -257,7 +268,6 @@ impl Settings {
             ("delta_w_max", self.delta_w_max),
             ("delta_w_decrease", self.delta_w_decrease),
             ("infeas_stat_tol", self.infeas_stat_tol),
-            ("mu_floor_factor", self.mu_floor_factor),
             ("barrier_tol_factor", self.barrier_tol_factor),
         ];
         for (field, v) in pos {
@@ -269,9 +279,25 @@ impl Settings {
                 });
             }
         }
+        let off_or_unit = [
+            ("mu_floor_factor", self.mu_floor_factor, f64::INFINITY),
+            ("mu_max_decrease", self.mu_max_decrease, 1.0),
+        ];
+        for (field, v, hi) in off_or_unit {
+            if !(v >= 0.0 && v < hi) {
+                return Err(SettingsError {
+                    field,
+                    value: v.to_string(),
+                    expected: if hi.is_finite() {
+                        "must lie in [0, 1) (0: safeguard off)"
+                    } else {
+                        "must be a finite number >= 0 (0: safeguard off)"
+                    },
+                });
+            }
+        }
         let unit = [
             ("tau_min", self.tau_min),
-            ("mu_max_decrease", self.mu_max_decrease),
             ("mu_linear_decrease", self.mu_linear_decrease),
             ("armijo", self.armijo),
         ];
@@ -446,6 +472,30 @@ mod tests {
     #[test]
     fn defaults_are_valid() {
         assert_eq!(Settings::default().validate(), Ok(()));
+    }
+
+    #[test]
+    fn the_free_rules_safeguards_switch_off_at_zero_and_refuse_negatives() {
+        let off = Settings {
+            mu_floor_factor: 0.0,
+            mu_max_decrease: 0.0,
+            ..Settings::default()
+        };
+        assert_eq!(off.validate(), Ok(()));
+        assert_eq!(refused(|s| s.mu_floor_factor = -1e-3), "mu_floor_factor");
+        assert_eq!(refused(|s| s.mu_floor_factor = f64::NAN), "mu_floor_factor");
+        assert_eq!(refused(|s| s.mu_max_decrease = 1.0), "mu_max_decrease");
+        assert_eq!(refused(|s| s.mu_max_decrease = -0.1), "mu_max_decrease");
+    }
+
+    #[test]
+    fn every_rule_parses_from_its_table_iv_name() {
+        for rule in BarrierRule::ALL {
+            assert_eq!(BarrierRule::parse(rule.name()), Some(rule));
+        }
+        assert_eq!(BarrierRule::parse("quality"), Some(BarrierRule::Quality));
+        assert_eq!(BarrierRule::parse("adaptive"), Some(BarrierRule::Adaptive));
+        assert_eq!(BarrierRule::parse("mehrotra"), None);
     }
 
     #[test]

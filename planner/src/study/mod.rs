@@ -4,13 +4,15 @@
 //! - [`integrators`] (Sec. IV and VI-A: the nine integrators against the Gauss-Legendre
 //!   3-stage ground truth, Table I and Fig. 4a) and [`stiffness`] (Sec. IV, eq. 7 and
 //!   Fig. 3), drawn by [`figures`];
-//! - [`segments`] (Sec. VI-B, Tables II and III, Fig. 5: ten race segments from the
+//! - [`segments`] (Sec. VI-B, Table II, Fig. 5: ten race segments from the
 //!   equilibrium and the zero guess), drawn by [`segment_figures`], and [`barrier`]
-//!   (Sec. VI-C, Table IV: the oval with every barrier rule).
+//!   (Sec. VI-C, Table IV: the oval with every barrier rule);
+//! - [`paper`]: all of them as one report next to the paper's published numbers.
 
 pub mod barrier;
 pub mod figures;
 pub mod integrators;
+pub mod paper;
 pub mod segment_figures;
 pub mod segments;
 pub mod stiffness;

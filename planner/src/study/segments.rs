@@ -1,4 +1,4 @@
-//! The segment study (paper Sec. VI-B, Tables II and III, Fig. 5): every segment of a
+//! The segment study (paper Sec. VI-B, Table II, Fig. 5): every segment of a
 //! multi-segment scenario file solved from the equilibrium guess (eq. 8) and from the zero
 //! guess, with status, iterations, median solve time, t_N next to the shipped reference
 //! (`<data root>/reference/segments_ie_ipopt.csv`, CasADi + IPOPT) and the largest number
@@ -184,13 +184,14 @@ pub fn run(
     })
 }
 
-/// The table of one guess (Table II: equilibrium, Table III: zero), one row per segment.
+/// The table of one guess, one row per segment: the two halves of the paper's Table II
+/// (robust = equilibrium guess, zero guess).
 pub fn table(study: &SegmentsStudy, guess: &str) -> String {
     let mut s = String::new();
     let title = if guess == "equilibrium" {
-        "Table II"
+        "Table II, robust half"
     } else {
-        "Table III"
+        "Table II, zero-guess half"
     };
     let _ = writeln!(
         s,

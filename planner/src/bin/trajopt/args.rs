@@ -34,6 +34,7 @@ impl GuessArg {
 pub enum BarrierArg {
     Monotone,
     Adaptive,
+    Quality,
     Probing,
     Loqo,
     Fullmpc,
@@ -49,6 +50,7 @@ impl BarrierArg {
             BarrierArg::Fullmpc => BarrierRule::Fullmpc,
             BarrierArg::Loqo => BarrierRule::Loqo,
             BarrierArg::Adaptive => BarrierRule::Adaptive,
+            BarrierArg::Quality => BarrierRule::Quality,
             BarrierArg::Probing => BarrierRule::Probing,
         }
     }

@@ -18,7 +18,7 @@ impl<K: KktSolver> Solver<K> {
             BarrierRule::Monotone => s.mu_init,
             // The quality-function rule starts where the monotone rule does and never
             // raises mu (see `direction`).
-            BarrierRule::Adaptive => s.mu_init,
+            BarrierRule::Quality => s.mu_init,
             _ => {
                 let e = compute_errors(&mut self.ws, 0.0);
                 e.mu_avg.max(s.mu_min)
@@ -82,7 +82,7 @@ impl<K: KktSolver> Solver<K> {
             let mu_step = st.mu;
             let e = compute_errors(&mut self.ws, st.mu);
             st.mu = (0.8 * e.mu_avg).max(s.mu_min).min(st.mu_max);
-            if s.barrier == BarrierRule::Adaptive {
+            if s.barrier == BarrierRule::Quality {
                 // The quality-function rule never raises mu (see `direction`).
                 st.mu = st.mu.min(mu_step);
             }

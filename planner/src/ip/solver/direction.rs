@@ -64,6 +64,16 @@ impl<K: KktSolver> Solver<K> {
                 (mu_new, StepKind::Newton)
             }
             BarrierRule::Adaptive => {
+                // KNITRO's gap rule: a fixed fraction of the average complementarity.
+                let mu_avg = err.mu_avg.max(s.mu_min);
+                let mu_new = (barrier::GAP_SIGMA * mu_avg)
+                    .max(self.mu_floor(mu, err))
+                    .min(mu_max);
+                self.set_targets(mu_new, false);
+                self.solve_direction(delta_w, false);
+                (mu_new, StepKind::Newton)
+            }
+            BarrierRule::Quality => {
                 // Affine (mu = 0) and centred (mu = average complementarity) directions from
                 // the same factorization; mu = sigma * mu_avg with sigma from the quality
                 // function (Nocedal, Waechter, Waltz 2009).

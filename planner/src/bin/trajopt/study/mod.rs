@@ -4,6 +4,7 @@
 
 mod barrier;
 mod integrators;
+mod paper;
 mod segments;
 mod stiffness;
 
@@ -22,10 +23,12 @@ pub enum StudyCommand {
     Integrators(integrators::IntegratorsArgs),
     /// Stiffness ratio and participation factors along the optimal oval (paper Fig. 3).
     Stiffness(stiffness::StiffnessArgs),
-    /// Segments S01-S10 from the equilibrium and the zero guess (Tables II, III; Fig. 5).
+    /// Segments S01-S10 from the equilibrium and the zero guess (Table II; Fig. 5).
     Segments(segments::StudySegmentsArgs),
     /// The oval with each of the six barrier rules (Table IV).
     Barrier(barrier::StudyBarrierArgs),
+    /// Every table and figure of the paper next to its published numbers, as one report.
+    Paper(paper::StudyPaperArgs),
 }
 
 /// Runs the study `command` names.
@@ -35,6 +38,7 @@ pub fn run(command: StudyCommand) -> Result<(), String> {
         StudyCommand::Stiffness(a) => stiffness::run(a),
         StudyCommand::Segments(a) => segments::run(a),
         StudyCommand::Barrier(a) => barrier::run(a),
+        StudyCommand::Paper(a) => paper::run(a),
     }
 }
 

@@ -1,4 +1,4 @@
-//! `trajopt study segments`: [`planner::study::segments`] (paper Tables II and III,
+//! `trajopt study segments`: [`planner::study::segments`] (paper Table II,
 //! Fig. 5).
 
 use std::path::PathBuf;
@@ -28,7 +28,7 @@ pub struct StudySegmentsArgs {
     common: StudyCommon,
 }
 
-/// Runs the study, prints Tables II and III (stderr with `--json`), writes the convergence
+/// Runs the study, prints both halves of Table II (stderr with `--json`), writes the convergence
 /// and path figures.
 pub fn run(args: StudySegmentsArgs) -> Result<(), String> {
     let c = &args.common;

@@ -16,6 +16,7 @@ use planner::model::ix;
 
 use crate::clock::monotonic_ns;
 use crate::elog;
+use crate::kinds::KindCounts;
 use crate::msg::{
     new_run_id, RoadId, RunId, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED,
 };
@@ -280,6 +281,8 @@ struct TrackerLoop {
     have_plan: bool,
     inbox: Inbox,
     plans_not_converged: u64,
+    /// Plans driven, by kind.
+    kinds: KindCounts,
     last_plan_at: Instant,
     stats: Track,
     ever_stale: bool,
@@ -321,6 +324,7 @@ impl TrackerLoop {
             have_plan: false,
             inbox: Inbox::new(new_run_id()),
             plans_not_converged: 0,
+            kinds: KindCounts::default(),
             last_plan_at: Instant::now(),
             stats: Track::default(),
             ever_stale: false,
@@ -332,8 +336,9 @@ impl TrackerLoop {
         })
     }
 
-    /// Takes every queued plan: a valid own plan becomes the active one (a non-converged
-    /// one only when the active plan no longer covers the car or is stale).
+    /// Takes every queued plan: a valid own plan becomes the active one, whatever its kind
+    /// (the planner sends only what it judges drivable: a converged plan, a best iterate
+    /// within its violation threshold, or its previous plan shifted to the car).
     fn receive(&mut self, ports: &Ports) -> Result<(), IpcError> {
         let plant = &self.plant;
         while let Some(sample) = ports.sub.receive().map_err(ipc_err("receive trajectory"))? {
@@ -344,17 +349,10 @@ impl TrackerLoop {
             {
                 continue;
             }
-            let converged = matches!(m.status, 0 | 1);
-            // A non-converged best iterate replaces the active plan only when that
-            // plan no longer covers the car (or there is none yet).
-            let covered = self.have_plan
-                && reference(&self.plan, plant.x[ix::S] - self.plan.s_origin).is_some();
-            if !converged {
+            if !matches!(m.status, 0 | 1) {
                 self.plans_not_converged += 1;
-                if covered && !self.stale {
-                    continue;
-                }
             }
+            self.kinds.count_code(m.kind);
             *self.plan = *m;
             self.have_plan = true;
             self.last_plan_at = Instant::now();
@@ -493,7 +491,7 @@ impl TrackerLoop {
         );
         let us = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-3;
         let stale_at_s = self.stale_at_s;
-        serde_json::json!({
+        let mut v = serde_json::json!({
             "process": "tracker",
             "end_reason": end_reason,
             "laps_or_distance_m": plant.x[ix::S],
@@ -525,7 +523,9 @@ impl TrackerLoop {
             "ipc_latency_us_p50": us(&inbox.ipc_lat, 0.5),
             "ipc_latency_us_p99": us(&inbox.ipc_lat, 0.99),
             "ipc_latency_samples": inbox.ipc_lat.count(),
-        })
+        });
+        self.kinds.add_json(&mut v);
+        v
     }
 }
 

@@ -123,3 +123,28 @@ fn closed_loop_recording_replays_bit_identically() {
     assert_eq!(r["identical"].as_u64(), Some(inputs), "{stderr}");
     assert_eq!(r["different"], 0, "{stderr}");
 }
+
+/// A budget far too small to converge (1 ms; the first plan gets the start-up budget):
+/// the planner republishes its previous plan shifted to the car, and the tracker keeps
+/// driving it, in the lane, to the end of the distance. Both processes report the kinds.
+#[test]
+fn closed_loop_with_a_tiny_budget_drives_on_the_previous_plan_shifted() {
+    let _serial = serial();
+    let v = run_closed_loop(40.0, &["--budget-ms", "1"]);
+    assert_eq!(v["budget_ms"].as_f64(), Some(1.0), "{v}");
+    let driven = |k: &str| v[k].as_u64().unwrap_or(0);
+    assert!(driven("plans_previous_shifted") >= 3, "{v}");
+    assert!(driven("plans_converged") >= 1, "the first plan: {v}");
+    assert!(
+        v["planner"]["plans_previous_shifted"].as_u64().unwrap_or(0)
+            >= driven("plans_previous_shifted"),
+        "{v}"
+    );
+    assert_eq!(v["tracker"]["end_reason"], "distance reached", "{v}");
+    assert!(
+        v["laps_or_distance_m"].as_f64().unwrap_or(0.0) >= 40.0,
+        "{v}"
+    );
+    assert_eq!(v["lane_kept"], serde_json::json!(true), "{v}");
+    assert_eq!(v["tracker"]["stale"], serde_json::json!(false), "{v}");
+}

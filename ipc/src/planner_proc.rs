@@ -571,8 +571,14 @@ impl PlannerLoop {
             return Ok(());
         };
         let meta = if kind == PlanKind::PreviousShifted {
-            pol.previous.shift_to(solved.s_track, ds);
-            (kind, pol.previous.age(cycle), pol.previous.max_violation())
+            let (s_origin, to_car) = pol.previous.shift_to(solved.s_track, ds);
+            let origin = (s_origin, state.x[ix::T] - to_car);
+            (
+                kind,
+                pol.previous.age(cycle),
+                pol.previous.max_violation(),
+                origin,
+            )
         } else {
             let viol = solved.info.as_ref().map_or(0.0, |i| i.max_violation);
             let (xs, us) = (self.cy.planner.states(), self.cy.planner.controls());
@@ -586,13 +592,13 @@ impl PlannerLoop {
                     elog!("planner: cannot set the cycle budget: {e}");
                 }
             }
-            (kind, 0, viol)
+            (kind, 0, viol, (solved.s_track, state.x[ix::T]))
         };
         self.publish(ports, state, solved, meta)
     }
 
     /// Writes the plan the cycle sends in place into a loaned sample, sends it and notifies
-    /// the tracker. `meta` is (kind, age in cycles, max violation): a
+    /// the tracker. `meta` is (kind, age in cycles, max violation, (s, t) of node 0): a
     /// [`PlanKind::PreviousShifted`] plan is the previous plan's shifted copy, any other the
     /// planner's solution.
     fn publish(
@@ -600,7 +606,7 @@ impl PlannerLoop {
         ports: &Ports,
         state: &VehicleState,
         solved: &Solved,
-        (kind, age, viol): (PlanKind, u32, f64),
+        (kind, age, viol, (s_origin, t_origin)): (PlanKind, u32, f64, (f64, f64)),
     ) -> Result<(), IpcError> {
         let mut sample = ports
             .publisher
@@ -634,8 +640,8 @@ impl PlannerLoop {
             addr_of_mut!((*p).age_cycles).write(age);
             addr_of_mut!((*p).max_violation).write(viol);
             addr_of_mut!((*p).solve_time_s).write(solved.solve_time_s);
-            addr_of_mut!((*p).s_origin).write(solved.s_track);
-            addr_of_mut!((*p).t_origin).write(state.x[ix::T]);
+            addr_of_mut!((*p).s_origin).write(s_origin);
+            addr_of_mut!((*p).t_origin).write(t_origin);
             addr_of_mut!((*p).ds).write(self.ds);
             addr_of_mut!((*p).x_from).write(state.x);
             let px = addr_of_mut!((*p).x) as *mut [f64; NX];

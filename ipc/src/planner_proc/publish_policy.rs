@@ -4,12 +4,14 @@
 //! A cycle sends its solve's plan when it converged or when its best iterate is drivable;
 //! otherwise it republishes the last plan it sent that way, shifted to the car's arc
 //! length: with the car at s_car and the previous plan's origin at s_prev, the shift is
-//! d = s_car - s_prev >= 0 and node k of the republished plan is the previous plan at
-//! local arc length k ds + d (states linear in s, controls held on their interval),
-//! with s re-referenced to k ds and t to 0 at node 0. Past the previous horizon the states
-//! are held at its last node and t runs on at the last node's speed; the decision rule
-//! republishes only while d is at most half the horizon, so the car never reaches that
-//! part before the plan's first half runs out. With no usable previous plan (the first
+//! d = s_car - s_prev >= 0, and the republished plan starts at the last node the car has
+//! passed, m = floor(d / ds): its node k is the previous plan's node k + m and its origin
+//! s_prev + m ds, with s re-referenced to k ds and t to 0 at node 0. Shifting by whole
+//! nodes keeps the plan exactly (the controls are held on their intervals, which a
+//! fractional shift would smear over two). Past the previous horizon the states are held
+//! at its last node and t runs on at the last node's speed; the decision rule republishes
+//! only while d is at most half the horizon, so the car never reaches that part before
+//! the plan's first half runs out. With no usable previous plan (the first
 //! cycle, another tracker run, the car past half the horizon) the cycle sends nothing and
 //! the tracker holds its plan until it is stale, then brakes in lane.
 
@@ -99,28 +101,32 @@ impl PreviousPlan {
         cycle.saturating_sub(self.cycle).min(u64::from(u32::MAX)) as u32
     }
 
-    /// Writes the plan shifted to the car at `s_car` (see the module documentation) into
-    /// [`Self::shifted_plan`]. Allocates nothing.
-    pub fn shift_to(&mut self, s_car: f64, ds: f64) {
-        let shift = s_car - self.s_origin;
-        let end = HORIZON_N as f64 * ds;
-        let t_shift = interp(&self.xs, ds, shift)[ix::T];
+    /// Writes the plan shifted to the last node the car at `s_car` has passed (see the
+    /// module documentation) into [`Self::shifted_plan`]; returns its origin s and the
+    /// planned time from that node to the car \[s\]. Allocates nothing.
+    pub fn shift_to(&mut self, s_car: f64, ds: f64) -> (f64, f64) {
+        let shift = (s_car - self.s_origin).max(0.0);
+        let m = ((shift / ds).floor() as usize).min(HORIZON_N);
+        let t0 = self.xs[m][ix::T];
         let last = self.xs[HORIZON_N];
         for k in 0..=HORIZON_N {
             let s = k as f64 * ds;
-            let mut x = interp(&self.xs, ds, s + shift);
-            x[ix::S] = s;
-            x[ix::T] = if s + shift <= end {
-                x[ix::T] - t_shift
+            let mut x = if k + m <= HORIZON_N {
+                self.xs[k + m]
             } else {
-                last[ix::T] - t_shift + (s + shift - end) / last[ix::V].max(1.0)
+                let mut x = last;
+                x[ix::T] += (k + m - HORIZON_N) as f64 * ds / last[ix::V].max(1.0);
+                x
             };
+            x[ix::S] = s;
+            x[ix::T] -= t0;
             self.shifted_x[k] = x;
         }
         for k in 0..HORIZON_N {
-            let j = (((k as f64 * ds + shift) / ds).floor() as usize).min(HORIZON_N - 1);
-            self.shifted_u[k] = self.us[j];
+            self.shifted_u[k] = self.us[(k + m).min(HORIZON_N - 1)];
         }
+        let to_car = interp(&self.xs, ds, shift)[ix::T] - t0;
+        (self.s_origin + m as f64 * ds, to_car)
     }
 
     /// The states and controls [`Self::shift_to`] wrote.
@@ -220,17 +226,20 @@ mod tests {
         let shift = prev.usable_shift(105.0, 1, ds).expect("usable");
         assert_eq!(shift, 5.0);
         assert_eq!(prev.age(7), 3);
-        prev.shift_to(105.0, ds);
+        // The car at 105 m has passed node 2 (104 m): the plan restarts there.
+        let (origin, to_car) = prev.shift_to(105.0, ds);
+        assert_eq!(origin, 104.0);
+        assert!((to_car - 1.0 / 20.0).abs() < 1e-12, "{to_car}");
         let (sx, su) = prev.shifted_plan();
         for k in 0..=HORIZON_N {
             let s = k as f64 * ds;
             assert_eq!(sx[k][ix::S], s);
-            // Same track geometry: e at track s 105 + s is the previous plan's at 5 + s.
-            let e_prev = 0.01 * (s + shift).min(HORIZON_N as f64 * ds);
+            // Same track geometry: e at track s 104 + s is the previous plan's at 4 + s.
+            let e_prev = 0.01 * (s + 4.0).min(HORIZON_N as f64 * ds);
             assert!((sx[k][ix::E] - e_prev).abs() < 1e-12, "node {k}");
             assert!((sx[k][ix::T] - s / 20.0).abs() < 1e-12, "node {k}");
         }
-        assert_eq!(su[0][0], 2.0, "control of the interval holding s = 5");
+        assert_eq!(su[0][0], 2.0, "control of the interval holding s = 4");
         assert_eq!(su[HORIZON_N - 1][0], (HORIZON_N - 1) as f64);
     }
 
@@ -344,11 +353,12 @@ mod tests {
             policy.decide(Some(&info), shift, 1, ds),
             Some(PlanKind::PreviousShifted)
         );
-        policy.previous.shift_to(shift, ds);
+        let (origin, _) = policy.previous.shift_to(shift, ds);
+        assert_eq!(origin, ds, "the car 5 m on has passed node 1");
         let (xs, _) = policy.previous.shifted_plan();
         // The shifted plan is the converged one, seen from the car.
         for k in 0..HORIZON_N / 2 {
-            let want = interp(&converged, ds, k as f64 * ds + shift);
+            let want = converged[k + 1];
             for i in [ix::V, ix::E, ix::DPSI, ix::BETA, ix::R] {
                 assert!((xs[k][i] - want[i]).abs() < 1e-12, "node {k} state {i}");
             }

@@ -327,7 +327,7 @@ impl PlannerLoop {
                 "--rate-hz must be in (0, 1000]".into(),
             ));
         }
-        if !(args.lane_margin_m >= 0.0) {
+        if args.lane_margin_m.is_nan() || args.lane_margin_m < 0.0 {
             return Err(PlannerProcError::Setup(
                 "--lane-margin-m must be >= 0".into(),
             ));

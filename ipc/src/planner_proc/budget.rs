@@ -79,7 +79,7 @@ impl Overshoot {
     }
 }
 
-/// Measures the overshoot with `settings` (capped at [`MEASURE_ITERS`] iterations) on the
+/// Measures the overshoot with `settings` (capped at three iterations) on the
 /// first window, the car cruising at `v0` (allocates: a planner of its own).
 pub fn measure(
     sc: &Scenario,

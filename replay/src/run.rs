@@ -155,6 +155,10 @@ pub struct RunReport {
     /// What the car would have been sent, by kind (the planner's decision rule).
     #[serde(flatten)]
     pub sent: SentCounts,
+    /// What the car would have been sent for each plan, in order (`null`: nothing), when
+    /// a budget is applied.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sent_kinds: Option<Vec<Option<&'static str>>>,
     /// Solves over the deadline.
     pub deadline_misses: usize,
     /// Outputs bit-identical to the recorded ones.
@@ -230,6 +234,13 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
     let mut report = report(per_plan, pinned_core, opts.budget_ms)?;
     report.budget_applied = opts.budgets.budget_ms.is_some();
     report.max_iter = opts.budgets.max_iter;
+    report.sent_kinds = opts.budgets.any().then(|| {
+        report
+            .per_plan
+            .iter()
+            .map(|p| p.sent.map(PlanKind::name))
+            .collect()
+    });
     report.recovered = rec.recovery.as_ref().map(Recovered::from);
     report.deterministic &= validated.orphan_outputs.is_empty();
     report.orphan_outputs = validated.orphan_outputs;
@@ -346,6 +357,7 @@ fn report(
         max_iter: None,
         hit_budget: per_plan.iter().filter(|p| p.hit_budget).count(),
         sent: SentCounts::of(per_plan.iter().map(|p| &p.sent)),
+        sent_kinds: None,
         deadline_misses: per_plan.iter().filter(|p| p.missed).count(),
         identical,
         different,

@@ -143,12 +143,6 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                     .cloned()
                     .collect();
                 let deterministic = report.deterministic;
-                let budgets_applied = budget_ms.is_some() || max_iter.is_some();
-                let kinds: Vec<Option<&str>> = report
-                    .per_plan
-                    .iter()
-                    .map(|p| p.sent.map(|k| k.name()))
-                    .collect();
                 if !per_plan {
                     report.per_plan = differing;
                 }
@@ -156,9 +150,6 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 v["file"] = file.display().to_string().into();
                 v["plot"] = plot.map(|p| p.display().to_string()).into();
                 v["recorder_dropped"] = rec.dropped().into();
-                if budgets_applied {
-                    v["sent_kinds"] = kinds.into();
-                }
                 outln!("{v}");
                 return Ok(exit(
                     (deterministic || report.different == 0) && report.orphan_outputs.is_empty(),

@@ -373,6 +373,27 @@ mod tests {
         );
     }
 
+    #[test]
+    fn keeping_shifting_and_choosing_the_previous_plan_allocates_nothing() {
+        let ds = 2.0;
+        let (xs, us) = plan(20.0, ds);
+        let mut prev = PreviousPlan::new();
+        let measured = allocation_counter::measure(|| {
+            for i in 0..100 {
+                prev.store(&xs, &us, 0.0, 1, 1e-8, i);
+                let usable = prev.usable_shift(0.1 * i as f64, 1, ds).is_some();
+                assert_eq!(choose(None, usable), Some(PlanKind::PreviousShifted));
+                prev.shift_to(0.1 * i as f64, ds);
+            }
+        });
+        assert_eq!(measured.count_total, 0, "{measured:?}");
+        // The counter sees allocations (the test can fail).
+        let seen = allocation_counter::measure(|| {
+            std::hint::black_box(vec![1u8; 16]);
+        });
+        assert!(seen.count_total > 0);
+    }
+
     fn capped(status: Status) -> SolveInfo {
         SolveInfo {
             status,

@@ -304,6 +304,8 @@ struct PlannerLoop {
     first_budget_ms: f64,
     /// Cycles that solved (the recording's seq).
     cycles: u64,
+    /// Cycle time of the first plan sent (start-up budget) \[ms\].
+    first_cycle_ms: f64,
     latest: Option<VehicleState>,
     planned: LastPlanned,
     rejected: Rejected,
@@ -375,6 +377,7 @@ impl PlannerLoop {
             budget_ms,
             first_budget_ms,
             cycles: 0,
+            first_cycle_ms: 0.0,
             latest: None,
             planned: LastPlanned::default(),
             rejected: Rejected::default(),
@@ -636,6 +639,7 @@ impl PlannerLoop {
             "budget_ms": self.budget_ms,
             "first_budget_ms": self.first_budget_ms,
             "cycles_not_published": self.policy.not_sent,
+            "first_cycle_ms": self.first_cycle_ms,
             "plans_published": published,
             "warm_starts": warm,
             "equilibrium_starts": cold,

@@ -4,7 +4,7 @@
 //! ([`planner::plan::choice::choose`]).
 //!
 //! The rule needs to know whether a previous plan is usable: one was sent (converged or
-//! best iterate) and the car is still within the first half of its horizon. A recording
+//! best iterate) and the car is still within the first eighth of its horizon. A recording
 //! holds the road ahead of the car but not the car's arc length, so the replay takes the
 //! car where the previous sent plan puts it at the time elapsed between the two inputs'
 //! stamps (the arc length of that plan at t = elapsed, linear between nodes; past its
@@ -201,13 +201,13 @@ mod tests {
             sent.decide(&info(Status::Optimal, 0.0), 0, &xs),
             Some(PlanKind::Converged)
         );
-        // 1 s later the car is 20 m along the previous plan (of 100 m): usable.
+        // 0.5 s later the car is 10 m along the previous plan (of 100 m): usable.
         assert_eq!(
-            sent.decide(&bad, 1_000_000_000, &xs),
+            sent.decide(&bad, 500_000_000, &xs),
             Some(PlanKind::PreviousShifted)
         );
-        // 3 s later it is 60 m along: past half the horizon.
-        assert_eq!(sent.decide(&bad, 3_000_000_000, &xs), None);
+        // 1 s later it is 20 m along: past an eighth of the horizon.
+        assert_eq!(sent.decide(&bad, 1_000_000_000, &xs), None);
         let c = SentCounts::of(&[
             None,
             Some(PlanKind::Converged),

@@ -135,7 +135,7 @@ fn closed_loop_recording_replays_bit_identically() {
 #[test]
 fn closed_loop_with_a_tiny_budget_drives_on_the_previous_plan_shifted() {
     let _serial = serial();
-    let v = run_closed_loop(40.0, &["--budget-ms", "1"]);
+    let v = run_closed_loop(25.0, &["--budget-ms", "1"]);
     assert_eq!(v["budget_ms"].as_f64(), Some(1.0), "{v}");
     let driven = |k: &str| v[k].as_u64().unwrap_or(0);
     assert!(driven("plans_previous_shifted") >= 3, "{v}");

@@ -10,9 +10,8 @@
 //! nodes keeps the plan exactly (the controls are held on their intervals, which a
 //! fractional shift would smear over two). Past the previous horizon the states are held
 //! at its last node and t runs on at the last node's speed; the decision rule republishes
-//! only while d is at most half the horizon, so the car never reaches that part before
-//! the plan's first half runs out. With no usable previous plan (the first
-//! cycle, another tracker run, the car past half the horizon) the cycle sends nothing and
+//! only while d is at most an eighth of the horizon, so the car never reaches that part. With no usable previous plan (the first
+//! cycle, another tracker run, the car past an eighth of the horizon) the cycle sends nothing and
 //! the tracker holds its plan until it is stale, then brakes in lane.
 
 use planner::ip::{SolveInfo, Status};
@@ -219,9 +218,9 @@ mod tests {
         assert_eq!(prev.usable_shift(95.0, 1, ds), None, "the car is behind it");
         assert_eq!(prev.usable_shift(105.0, 2, ds), None, "another tracker run");
         assert_eq!(
-            prev.usable_shift(201.0, 1, ds),
+            prev.usable_shift(126.0, 1, ds),
             None,
-            "past half the horizon"
+            "past an eighth of the horizon"
         );
         let shift = prev.usable_shift(105.0, 1, ds).expect("usable");
         assert_eq!(shift, 5.0);

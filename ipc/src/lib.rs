@@ -6,7 +6,8 @@
 //! controller of the simple feedback kind, [`controller`] the feed-forward plus LQR one
 //! ([`lqr`]: its gains); [`mismatch`] makes the plant differ from
 //! the planner's model; [`planner_proc`] and [`tracker_proc`] are the two process loops;
-//! [`stats`] collects latencies; [`out`] writes the standard streams without panicking
+//! [`stats`] collects latencies; [`kinds`] counts plans by kind; [`out`] writes the
+//! standard streams without panicking
 //! on a closed pipe.
 #![deny(missing_docs)]
 #![allow(clippy::needless_range_loop)]
@@ -15,6 +16,7 @@ pub mod clock;
 pub mod controller;
 pub mod lqr;
 pub mod mismatch;
+pub mod kinds;
 pub mod msg;
 pub mod out;
 pub mod planner_proc;

@@ -11,9 +11,10 @@
 use iceoryx2::prelude::ZeroCopySend;
 use planner::ip::Status;
 use planner::model::{ix, NU, NX};
+pub use planner::plan::choice::{kind_name, PlanKind};
 
 /// Wire version of every message in this module; bump on any layout change.
-pub const MSG_VERSION: u32 = 2;
+pub const MSG_VERSION: u32 = 3;
 /// Horizon intervals N carried by a [`Trajectory`]: the planner's [`planner::HORIZON`].
 pub const HORIZON_N: usize = planner::HORIZON;
 
@@ -89,7 +90,8 @@ pub struct VehicleState {
 pub struct Trajectory {
     /// Must equal [`MSG_VERSION`].
     pub version: u32,
-    /// Solver status code ([`status_code`]); a capped solve still publishes its best iterate.
+    /// Solver status code ([`status_code`]) of the cycle's solve; `kind` says what the
+    /// cycle sent.
     pub status: u32,
     /// Sequence number, +1 per published plan.
     pub seq: u64,
@@ -107,6 +109,17 @@ pub struct Trajectory {
     pub iterations: u32,
     /// 1 when warm-started from the previous plan shifted in s, 0 for the equilibrium guess.
     pub warm_started: u32,
+    /// What kind of plan this is ([`PlanKind::code`]: 0 converged, 1 best iterate, 2 the
+    /// previous plan shifted to the car's s; [`kind_name`]). For a shifted previous plan,
+    /// `status` and `iterations` are this cycle's solve's, the trajectory and
+    /// `max_violation` the previous plan's.
+    pub kind: u32,
+    /// Cycles since the trajectory was solved: 0, or how many cycles ago the plan a
+    /// shifted previous plan repeats was solved.
+    pub age_cycles: u32,
+    /// Max constraint violation of the solve that produced the trajectory (scaled NLP
+    /// units; `planner::plan::choice::DRIVABLE_VIOLATION` bounds a best iterate's).
+    pub max_violation: f64,
     /// Wall time of the planning cycle (road window, guess, solve) \[s\].
     pub solve_time_s: f64,
     /// Track arc length of node 0 \[m\] (unwrapped, as in the vehicle state).
@@ -188,6 +201,9 @@ pub enum Invalid {
     /// Unknown solver status code.
     #[error("unknown solver status code {0}")]
     Status(u32),
+    /// Unknown plan-kind code.
+    #[error("unknown plan kind code {0}")]
+    Kind(u32),
     /// An entry of a plan's node is NaN or infinite.
     #[error("plan node {node}: {field} is not finite")]
     NodeNonFinite {
@@ -304,6 +320,9 @@ impl Trajectory {
             from_state_stamp_ns: 0,
             iterations: 0,
             warm_started: 0,
+            kind: 0,
+            age_cycles: 0,
+            max_violation: 0.0,
             solve_time_s: 0.0,
             s_origin: 0.0,
             t_origin: 0.0,
@@ -322,7 +341,11 @@ impl Trajectory {
         if status_name(self.status).is_none() {
             return Err(Invalid::Status(self.status));
         }
+        if kind_name(self.kind).is_none() {
+            return Err(Invalid::Kind(self.kind));
+        }
         for (field, v) in [
+            ("max_violation", self.max_violation),
             ("ds", self.ds),
             ("s_origin", self.s_origin),
             ("t_origin", self.t_origin),
@@ -430,6 +453,9 @@ mod tests {
             from_state_stamp_ns: 0,
             iterations: 40,
             warm_started: 0,
+            kind: PlanKind::Converged.code(),
+            age_cycles: 0,
+            max_violation: 1e-9,
             solve_time_s: 0.02,
             s_origin: 100.0,
             t_origin: 5.0,
@@ -446,6 +472,17 @@ mod tests {
         let mut m = good_plan();
         m.status = 999;
         assert_eq!(m.validate(7), Err(Invalid::Status(999)));
+        let mut m = good_plan();
+        m.kind = 3;
+        assert_eq!(m.validate(7), Err(Invalid::Kind(3)));
+        let mut m = good_plan();
+        m.max_violation = f64::NAN;
+        assert_eq!(
+            m.validate(7),
+            Err(Invalid::NonFinite {
+                field: "max_violation"
+            })
+        );
         let mut m = good_plan();
         m.x[17][ix::BETA] = f64::NAN;
         assert_eq!(

@@ -26,13 +26,16 @@ use planner::plan::{Planner, ReplanGuess, WarmOptions};
 
 use crate::clock::monotonic_ns;
 use crate::elog;
-use crate::msg::{status_code, Invalid, RunId, Trajectory, VehicleState, HORIZON_N, MSG_VERSION};
+use crate::msg::{Invalid, RunId, Trajectory, VehicleState, HORIZON_N};
 use crate::road::{RoadWindow, Scenario};
 use crate::services::{ipc_err, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
 
+pub mod budget;
+pub mod publish_policy;
 mod record;
+mod send;
 pub use record::CycleRecorder;
 
 /// Distance over which the lane margin ramps in from the lane edge \[m\].
@@ -59,9 +62,17 @@ pub struct PlannerArgs {
     /// Replanning rate [Hz].
     #[arg(long, default_value_t = 10.0)]
     pub rate_hz: f64,
-    /// Wall-clock cap of one solve [s] (overrides the solver file's max_time_s).
-    #[arg(long, default_value_t = 1.0)]
-    pub max_solve_s: f64,
+    /// Wall-clock budget of one cycle's solve [ms] (overrides the solver file's
+    /// max_time_s; default: 80 % of the period 1 / --rate-hz).
+    #[arg(long)]
+    pub budget_ms: Option<f64>,
+    /// Budget of the solves until the first plan is sent [ms] (at least --budget-ms; the
+    /// tracker waits for its first plan).
+    #[arg(long, default_value_t = 1000.0)]
+    pub first_budget_ms: f64,
+    /// Alias of --budget-ms in seconds.
+    #[arg(long, hide = true, conflicts_with = "budget_ms")]
+    pub max_solve_s: Option<f64>,
     /// Lane margin the plan keeps from each edge [m] (room for tracking error).
     #[arg(long, default_value_t = 0.5)]
     pub lane_margin_m: f64,
@@ -115,9 +126,10 @@ impl Rejected {
             Invalid::Version { .. } => self.version += 1,
             Invalid::Road { .. } => self.road += 1,
             Invalid::NonFinite { .. } | Invalid::NodeNonFinite { .. } => self.non_finite += 1,
-            Invalid::Range { .. } | Invalid::NodeRange { .. } | Invalid::Status(_) => {
-                self.range += 1
-            }
+            Invalid::Range { .. }
+            | Invalid::NodeRange { .. }
+            | Invalid::Status(_)
+            | Invalid::Kind(_) => self.range += 1,
         }
     }
 
@@ -257,10 +269,11 @@ impl Ports {
     }
 }
 
-/// What one planning cycle solved: the solve's outcome and the state it planned from.
-/// The planner holds the solution ([`Planner::states`], [`Planner::controls`]).
+/// What one planning cycle solved: the solve's outcome (`None`: the replan failed) and the
+/// state it planned from. The planner holds the solution ([`Planner::states`],
+/// [`Planner::controls`]).
 struct Solved {
-    info: SolveInfo,
+    info: Option<SolveInfo>,
     warm_started: bool,
     /// The start state as planned from (re-referenced and nudged into the bounds).
     x0: [f64; NX],
@@ -285,6 +298,14 @@ struct PlannerLoop {
     warm_start: bool,
     recorder: Option<CycleRecorder>,
     cy: Cycle,
+    policy: publish_policy::Policy,
+    /// Solve budgets \[ms\]: steady, and until the first plan is sent.
+    budget_ms: f64,
+    first_budget_ms: f64,
+    /// Cycles that solved (the recording's seq).
+    cycles: u64,
+    /// Cycle time of the first plan sent (start-up budget) \[ms\].
+    first_cycle_ms: f64,
     latest: Option<VehicleState>,
     planned: LastPlanned,
     rejected: Rejected,
@@ -307,11 +328,12 @@ impl PlannerLoop {
                 "--rate-hz must be in (0, 1000]".into(),
             ));
         }
-        if !(args.max_solve_s > 0.0 && args.lane_margin_m >= 0.0) {
+        if args.lane_margin_m.is_nan() || args.lane_margin_m < 0.0 {
             return Err(PlannerProcError::Setup(
-                "--max-solve-s must be > 0 and --lane-margin-m >= 0".into(),
+                "--lane-margin-m must be >= 0".into(),
             ));
         }
+        let (budget_ms, first_budget_ms) = budget::budgets_ms(args)?;
         crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
         let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
@@ -321,7 +343,7 @@ impl PlannerLoop {
             ));
         }
         let mut settings = sc.settings;
-        settings.max_time_s = args.max_solve_s;
+        settings.max_time_s = budget_ms * 1e-3;
         let ds = sc.ds();
         let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
         let recorder =
@@ -331,6 +353,7 @@ impl PlannerLoop {
                 )?),
                 None => None,
             };
+        settings.max_time_s = first_budget_ms * 1e-3;
         let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         let cy = Cycle {
@@ -350,6 +373,11 @@ impl PlannerLoop {
             warm_start: args.warm_start == "on",
             recorder,
             cy,
+            policy: publish_policy::Policy::default(),
+            budget_ms,
+            first_budget_ms,
+            cycles: 0,
+            first_cycle_ms: 0.0,
             latest: None,
             planned: LastPlanned::default(),
             rejected: Rejected::default(),
@@ -397,26 +425,23 @@ impl PlannerLoop {
 
     /// Plans from `state`: samples the road window, nudges the start state into the
     /// bounds, checks the domain and solves (warm, then from the equilibrium). `None` when
-    /// nothing was solved (a state outside the domain or a failed replan); otherwise what
-    /// was solved, converged or not.
+    /// nothing was planned (a state outside the domain); otherwise what was solved,
+    /// converged or not (`info` is `None` when the replan failed).
     fn plan_cycle(&mut self, state: &VehicleState) -> Option<Solved> {
         let stamp_in = now_ns();
         let t0 = Instant::now();
         let s_track = state.x[ix::S];
         let x0 = self.start_state(state)?;
-        let (info, warm_started) = self.solve(state, x0, s_track)?;
-        if !info.status.is_success() {
+        let (info, warm_started) = match self.solve(state, x0, s_track) {
+            Some((info, warm)) => (Some(info), warm),
+            None => (None, false),
+        };
+        if info.as_ref().is_some_and(|i| !i.status.is_success()) {
             self.failed += 1;
-            if self.failed <= 10 || self.failed.is_multiple_of(100) {
-                elog!(
-                    "planner: plan {} ended {} after {} iterations; publishing the best iterate",
-                    self.published,
-                    info.status.name(),
-                    info.iterations
-                );
-            }
         }
-        self.cy.prev_ok = matches!(info.status, Status::Optimal | Status::Acceptable);
+        self.cy.prev_ok = info
+            .as_ref()
+            .is_some_and(|i| matches!(i.status, Status::Optimal | Status::Acceptable));
         self.cy.prev_origin = s_track;
         self.planned.mark(state);
         let solve_time_s = t0.elapsed().as_secs_f64();
@@ -539,65 +564,9 @@ impl PlannerLoop {
         }
     }
 
-    /// Writes the planner's solution in place into a loaned sample, sends it and notifies
-    /// the tracker.
-    fn publish(
-        &mut self,
-        ports: &Ports,
-        state: &VehicleState,
-        solved: &Solved,
-    ) -> Result<(), IpcError> {
-        let mut sample = ports
-            .publisher
-            .loan_uninit()
-            .map_err(ipc_err("loan trajectory"))?;
-        let p = sample.payload_mut().as_mut_ptr();
-        let xs = self.cy.planner.states();
-        let us = self.cy.planner.controls();
-        let info = &solved.info;
-        // SAFETY: `p` points to a properly aligned, writable `Trajectory` in the loaned
-        // shared-memory chunk; every field is written exactly once below (all are plain
-        // `Copy` data), so the sample is fully initialised before `assume_init`.
-        let sample = unsafe {
-            use core::ptr::addr_of_mut;
-            addr_of_mut!((*p).version).write(MSG_VERSION);
-            addr_of_mut!((*p).status).write(status_code(info.status));
-            addr_of_mut!((*p).seq).write(self.published);
-            addr_of_mut!((*p).road_id).write(self.sc.id);
-            addr_of_mut!((*p).from_run_id).write(state.run_id);
-            addr_of_mut!((*p).from_state_seq).write(state.seq);
-            addr_of_mut!((*p).from_state_stamp_ns).write(state.stamp_ns);
-            addr_of_mut!((*p).iterations).write(info.iterations.min(u32::MAX as usize) as u32);
-            addr_of_mut!((*p).warm_started).write(u32::from(solved.warm_started));
-            addr_of_mut!((*p).solve_time_s).write(solved.solve_time_s);
-            addr_of_mut!((*p).s_origin).write(solved.s_track);
-            addr_of_mut!((*p).t_origin).write(state.x[ix::T]);
-            addr_of_mut!((*p).ds).write(self.ds);
-            addr_of_mut!((*p).x_from).write(state.x);
-            let px = addr_of_mut!((*p).x) as *mut [f64; NX];
-            for k in 0..=HORIZON_N {
-                px.add(k).write(xs[k]);
-            }
-            let pu = addr_of_mut!((*p).u) as *mut [f64; NU];
-            for k in 0..HORIZON_N {
-                pu.add(k).write(us[k]);
-            }
-            addr_of_mut!((*p).stamp_ns).write(monotonic_ns());
-            sample.assume_init()
-        };
-        sample.send().map_err(ipc_err("send trajectory"))?;
-        ports
-            .notifier
-            .notify()
-            .map_err(ipc_err("notify trajectory"))?;
-        self.published += 1;
-        self.cycle_lat
-            .record_ns(solved.t0.elapsed().as_nanos() as u64);
-        Ok(())
-    }
-
     /// Records the plan just published (after publishing; copies into a preallocated slot).
     fn record(&mut self, solved: &Solved) {
+        let Some(info) = &solved.info else { return };
         if let Some(rec) = &mut self.recorder {
             if solved.warm_started {
                 rec.skip_warm_started();
@@ -605,15 +574,38 @@ impl PlannerLoop {
                 let xs = self.cy.planner.states();
                 let us = self.cy.planner.controls();
                 rec.record(
-                    self.published - 1,
+                    self.cycles,
                     solved.stamp_in,
                     &self.cy.road,
                     solved.x0,
-                    &solved.info,
+                    info,
                     xs,
                     us,
                 );
             }
+        }
+    }
+
+    /// Logs, in one line, the worst-case cycle time the caps allow on this machine
+    /// ([`budget::measure`]).
+    fn log_worst_case(&self, args: &PlannerArgs) {
+        let settings = *self.cy.planner.solver().settings();
+        match budget::measure(&self.sc, settings, self.margin, 15.0) {
+            Ok(o) => elog!(
+                "planner: worst-case cycle {:.1} ms = budget {:.1} ms + overshoot {:.2} ms (one factorization {:.2} ms with its solves {:.2} ms and two evaluations of {:.2} ms, measured on the first window), period {:.1} ms; first plan budget {:.0} ms",
+                self.budget_ms + o.total_ms(),
+                self.budget_ms,
+                o.total_ms(),
+                o.factorization_ms,
+                o.solves_ms,
+                o.evaluation_ms,
+                1e3 / args.rate_hz,
+                self.first_budget_ms
+            ),
+            Err(e) => elog!(
+                "planner: budget {:.1} ms; worst-case cycle not measured: {e}",
+                self.budget_ms
+            ),
         }
     }
 
@@ -648,8 +640,12 @@ impl PlannerLoop {
             _ => serde_json::Value::Null,
         };
         let ms = |l: &Latency, q: f64| l.quantile_ns(q) as f64 * 1e-6;
-        Ok(serde_json::json!({
+        let mut v = serde_json::json!({
             "process": "planner",
+            "budget_ms": self.budget_ms,
+            "first_budget_ms": self.first_budget_ms,
+            "cycles_not_published": self.policy.not_sent,
+            "first_cycle_ms": self.first_cycle_ms,
             "plans_published": published,
             "warm_starts": warm,
             "equilibrium_starts": cold,
@@ -670,7 +666,9 @@ impl PlannerLoop {
             "state_age_at_receive_us": self.state_ipc_lat.json_us(),
             "rate_hz": args.rate_hz,
             "recording": recording,
-        }))
+        });
+        self.policy.sent.add_json(&mut v);
+        Ok(v)
     }
 }
 
@@ -688,6 +686,7 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         args.rate_hz,
         pl.ds
     );
+    pl.log_worst_case(args);
     loop {
         if ports.stdin.closed() || ports.svc.termination_requested() {
             break;
@@ -717,8 +716,9 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
         let Some(solved) = pl.plan_cycle(&state) else {
             continue;
         };
-        pl.publish(&ports, &state, &solved)?;
+        pl.send(&ports, &state, &solved)?;
         pl.record(&solved);
+        pl.cycles += 1;
     }
     pl.report(args)
 }

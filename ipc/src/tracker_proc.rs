@@ -18,6 +18,7 @@ use crate::clock::monotonic_ns;
 use crate::controller::Controller;
 use crate::elog;
 use crate::mismatch::Mismatch;
+use crate::kinds::KindCounts;
 use crate::msg::{
     new_run_id, RoadId, RunId, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED,
 };
@@ -295,6 +296,8 @@ struct TrackerLoop {
     have_plan: bool,
     inbox: Inbox,
     plans_not_converged: u64,
+    /// Plans driven, by kind.
+    kinds: KindCounts,
     last_plan_at: Instant,
     stats: Track,
     ever_stale: bool,
@@ -359,6 +362,7 @@ impl TrackerLoop {
             have_plan: false,
             inbox: Inbox::new(new_run_id()),
             plans_not_converged: 0,
+            kinds: KindCounts::default(),
             last_plan_at: Instant::now(),
             stats: Track::default(),
             ever_stale: false,
@@ -370,8 +374,9 @@ impl TrackerLoop {
         })
     }
 
-    /// Takes every queued plan: a valid own plan becomes the active one (a non-converged
-    /// one only when the active plan no longer covers the car or is stale).
+    /// Takes every queued plan: a valid own plan becomes the active one, whatever its kind
+    /// (the planner sends only what it judges drivable: a converged plan, a best iterate
+    /// within its violation threshold, or its previous plan shifted to the car).
     fn receive(&mut self, ports: &Ports) -> Result<(), IpcError> {
         let plant = &self.car.plant;
         while let Some(sample) = ports.sub.receive().map_err(ipc_err("receive trajectory"))? {
@@ -382,17 +387,10 @@ impl TrackerLoop {
             {
                 continue;
             }
-            let converged = matches!(m.status, 0 | 1);
-            // A non-converged best iterate replaces the active plan only when that
-            // plan no longer covers the car (or there is none yet).
-            let covered = self.have_plan
-                && reference(&self.plan, plant.x[ix::S] - self.plan.s_origin).is_some();
-            if !converged {
+            if !matches!(m.status, 0 | 1) {
                 self.plans_not_converged += 1;
-                if covered && !self.stale {
-                    continue;
-                }
             }
+            self.kinds.count_code(m.kind);
             *self.plan = *m;
             self.have_plan = true;
             self.last_plan_at = Instant::now();
@@ -573,6 +571,7 @@ impl TrackerLoop {
             args.noise_seed,
             self.controller.preview_s(),
         );
+        self.kinds.add_json(&mut obj);
         obj
     }
 }

@@ -2,6 +2,8 @@
 //! cached equilibrium guess. Everything is allocated in [`Planner::new`]; [`Planner::solve`]
 //! allocates nothing.
 
+pub mod choice;
+
 use crate::guess::{self, Equilibrium, GuessKind};
 use crate::ip::{Settings, SetupError, SolveInfo, Solver};
 use crate::model::{ix, NU, NX};

@@ -5,10 +5,12 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use plan_record::{first_difference, PlanOutput, Recording};
+use planner::plan::choice::PlanKind;
 use planner::plan::Planner;
 use planner::record::{plan_output, problem_from};
 use serde::Serialize;
 
+use crate::budget::{comparable, hit_cap, Budgets, SentCounts, SentPlans};
 use crate::info::Recovered;
 use crate::stats::{latency, Latency, StatsError};
 use crate::validate::{orphan_line, validate};
@@ -17,8 +19,10 @@ use crate::N;
 /// How to replay.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunOptions {
-    /// Deadline per solve \[ms\] (10 Hz: 100 ms).
+    /// Deadline per solve \[ms\] (10 Hz: 100 ms); the time budget when one is applied.
     pub budget_ms: f64,
+    /// Budgets applied to every solve (none: the recorded settings).
+    pub budgets: Budgets,
     /// Core to pin the solver thread to; None: the last core.
     pub core: Option<usize>,
 }
@@ -27,6 +31,7 @@ impl Default for RunOptions {
     fn default() -> Self {
         Self {
             budget_ms: 100.0,
+            budgets: Budgets::default(),
             core: None,
         }
     }
@@ -77,6 +82,9 @@ pub enum ReplayError {
         /// The seq.
         seq: u64,
     },
+    /// The iteration budget is out of range.
+    #[error("--max-iter must lie in 1..=100000, got {0}")]
+    MaxIter(usize),
     /// The solver thread failed.
     #[error("replay thread: {0}")]
     Thread(String),
@@ -108,6 +116,12 @@ pub struct PlanResult {
     pub difference: Option<String>,
     /// Latency above the budget.
     pub missed: bool,
+    /// Max constraint violation of the replayed solve's returned point.
+    pub max_violation: f64,
+    /// The solve ended at its iteration or time cap.
+    pub hit_budget: bool,
+    /// What the planner would have sent the car (None: nothing).
+    pub sent: Option<PlanKind>,
 }
 
 /// Mean and max of one solver phase \[ms\].
@@ -130,8 +144,21 @@ pub struct RunReport {
     pub plans: usize,
     /// Core the solver thread was pinned to (None: pinning failed).
     pub pinned_core: Option<usize>,
-    /// Deadline \[ms\].
+    /// Deadline \[ms\]: the time budget when `budget_applied`.
     pub budget_ms: f64,
+    /// Every solve ran with `budget_ms` as its time budget (`--budget-ms`).
+    pub budget_applied: bool,
+    /// Iteration budget of every solve (`--max-iter`; None: the recorded one).
+    pub max_iter: Option<usize>,
+    /// Solves that ended at their iteration or time cap.
+    pub hit_budget: usize,
+    /// What the car would have been sent, by kind (the planner's decision rule).
+    #[serde(flatten)]
+    pub sent: SentCounts,
+    /// What the car would have been sent for each plan, in order (`null`: nothing), when
+    /// a budget is applied.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sent_kinds: Option<Vec<Option<&'static str>>>,
     /// Solves over the deadline.
     pub deadline_misses: usize,
     /// Outputs bit-identical to the recorded ones.
@@ -166,6 +193,16 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
     if !(opts.budget_ms > 0.0 && opts.budget_ms.is_finite()) {
         return Err(ReplayError::Budget(opts.budget_ms));
     }
+    if let Some(ms) = opts
+        .budgets
+        .budget_ms
+        .filter(|ms| !(*ms > 0.0 && *ms <= 3.6e6))
+    {
+        return Err(ReplayError::Budget(ms));
+    }
+    if let Some(k) = opts.budgets.max_iter.filter(|k| !(1..=100_000).contains(k)) {
+        return Err(ReplayError::MaxIter(k));
+    }
     if rec.inputs.is_empty() {
         return Err(ReplayError::NoInputs);
     }
@@ -188,13 +225,22 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
             let pinned = core
                 .filter(|c| core_affinity::set_for_current(*c))
                 .map(|c| c.id);
-            replay_all(rec, &outputs, opts.budget_ms).map(|r| (pinned, r))
+            replay_all(rec, &outputs, opts).map(|r| (pinned, r))
         })
         .join()
         .map_err(|_| ReplayError::Thread("solver thread panicked".into()))
     })??;
     let (pinned_core, per_plan) = per_plan;
     let mut report = report(per_plan, pinned_core, opts.budget_ms)?;
+    report.budget_applied = opts.budgets.budget_ms.is_some();
+    report.max_iter = opts.budgets.max_iter;
+    report.sent_kinds = opts.budgets.any().then(|| {
+        report
+            .per_plan
+            .iter()
+            .map(|p| p.sent.map(PlanKind::name))
+            .collect()
+    });
     report.recovered = rec.recovery.as_ref().map(Recovered::from);
     report.deterministic &= validated.orphan_outputs.is_empty();
     report.orphan_outputs = validated.orphan_outputs;
@@ -204,13 +250,15 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
 fn replay_all(
     rec: &Recording,
     outputs: &HashMap<u64, &PlanOutput>,
-    budget_ms: f64,
+    opts: RunOptions,
 ) -> Result<Vec<PlanResult>, ReplayError> {
     let mut results = Vec::with_capacity(rec.inputs.len());
     // Progress is reported between solves, outside the timed section.
     planner::progress::begin(rec.inputs.len() as u64, "replay");
+    let mut sent = SentPlans::default();
     for input in &rec.inputs {
-        let (spec, settings, guess) = problem_from(input)?;
+        let (spec, recorded_settings, guess) = problem_from(input)?;
+        let settings = opts.budgets.apply(recorded_settings);
         if spec.n_intervals != N {
             return Err(ReplayError::Horizon {
                 seq: input.seq,
@@ -226,7 +274,10 @@ fn replay_all(
         let info = planner.solve(guess);
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let replayed = plan_output(input.seq, 0, &info, planner.states(), planner.controls());
-        let recorded = outputs.get(&input.seq);
+        // A solve stopped by other caps than the recorded ones is compared with nothing.
+        let recorded = outputs
+            .get(&input.seq)
+            .filter(|r| comparable((&info, &settings), (r, &recorded_settings)));
         let difference = recorded.and_then(|r| first_difference(r, &replayed));
         results.push(PlanResult {
             seq: input.seq,
@@ -243,7 +294,10 @@ fn replay_all(
             ],
             identical: recorded.map(|_| difference.is_none()),
             difference,
-            missed: latency_ms > budget_ms,
+            missed: latency_ms > opts.budget_ms,
+            max_violation: info.max_violation,
+            hit_budget: hit_cap(&info, &settings),
+            sent: sent.decide(&info, input.stamp_ns, planner.states()),
         });
         planner::progress::advance(&format!("plan {}", input.seq));
     }
@@ -303,6 +357,11 @@ fn report(
         plans: per_plan.len(),
         pinned_core,
         budget_ms,
+        budget_applied: false,
+        max_iter: None,
+        hit_budget: per_plan.iter().filter(|p| p.hit_budget).count(),
+        sent: SentCounts::of(per_plan.iter().map(|p| &p.sent)),
+        sent_kinds: None,
         deadline_misses: per_plan.iter().filter(|p| p.missed).count(),
         identical,
         different,
@@ -371,6 +430,23 @@ impl std::fmt::Display for RunReport {
             f,
             "deadline misses: {} of {} over {:.1} ms",
             self.deadline_misses, self.plans, self.budget_ms
+        )?;
+        let budget = match (self.budget_applied, self.max_iter) {
+            (true, Some(k)) => format!("budget {:.1} ms and {k} iterations", self.budget_ms),
+            (true, None) => format!("budget {:.1} ms", self.budget_ms),
+            (false, Some(k)) => format!("budget {k} iterations"),
+            (false, None) => "recorded caps".to_string(),
+        };
+        let c = &self.sent;
+        writeln!(
+            f,
+            "{budget}: {} of {} solves hit it; the car would have been sent {} converged, {} best iterates, {} previous plans shifted, nothing {} times",
+            self.hit_budget,
+            self.plans,
+            c.sent_converged,
+            c.sent_best_iterate,
+            c.sent_previous_shifted,
+            c.sent_nothing
         )?;
         let st: Vec<String> = self
             .statuses

@@ -32,9 +32,13 @@ enum Command {
     Run {
         /// The recording.
         file: PathBuf,
-        /// Deadline per solve [ms].
-        #[arg(long, default_value_t = 100.0)]
-        budget_ms: f64,
+        /// Time budget of every solve [ms], also the deadline (default: the recorded
+        /// settings' budget, and a 100 ms deadline).
+        #[arg(long)]
+        budget_ms: Option<f64>,
+        /// Iteration budget of every solve (default: the recorded settings' max_iter).
+        #[arg(long)]
+        max_iter: Option<usize>,
         /// Core to pin the solver thread to (default: the last core).
         #[arg(long)]
         core: Option<usize>,
@@ -113,14 +117,22 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
         Command::Run {
             file,
             budget_ms,
+            max_iter,
             core,
             json,
             per_plan,
             plot,
         } => {
             let rec = read(&file)?;
-            let mut report = run(&rec, RunOptions { budget_ms, core })
-                .map_err(|e| format!("{}: {e}", file.display()))?;
+            let opts = RunOptions {
+                budget_ms: budget_ms.unwrap_or(100.0),
+                budgets: replay::budget::Budgets {
+                    budget_ms,
+                    max_iter,
+                },
+                core,
+            };
+            let mut report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
             if let Some(png) = &plot {
                 replay::plot::plot_latency(&report, png).map_err(|e| e.to_string())?;
             }

@@ -51,6 +51,10 @@ pub struct ClosedLoopArgs {
     /// Seed of the measurement noise (tracker only).
     #[arg(long, default_value_t = 1)]
     noise_seed: u64,
+    /// Budget of one planning cycle's solve [ms] (`planner_proc --budget-ms`; default 80 %
+    /// of the period).
+    #[arg(long)]
+    budget_ms: Option<f64>,
 }
 
 /// Kills a child on drop unless it was waited for (no orphans on error paths).
@@ -153,6 +157,9 @@ fn spawn_pair(
     if let Some(path) = &args.record {
         pc.arg("--record").arg(path);
     }
+    if let Some(ms) = args.budget_ms {
+        pc.arg("--budget-ms").arg(ms.to_string());
+    }
     let planner = ChildGuard(Some(
         pc.spawn()
             .map_err(|e| format!("{}: {e}", planner_exe.display()))?,
@@ -253,6 +260,10 @@ fn summary_json(
         "plan_latency_ms_p99": f("plan_latency_ms_p99"),
         "ipc_latency_us_p50": f("ipc_latency_us_p50"),
         "ipc_latency_us_p99": f("ipc_latency_us_p99"),
+        "plans_converged": f("plans_converged"),
+        "plans_best_iterate": f("plans_best_iterate"),
+        "plans_previous_shifted": f("plans_previous_shifted"),
+        "budget_ms": p.get("budget_ms").cloned().unwrap_or(serde_json::Value::Null),
         "tracker": t,
         "planner": p,
     })
@@ -263,7 +274,8 @@ fn summary_text(obj: &serde_json::Value) -> String {
     format!(
         "closed loop: {:.1} m ({:.2} laps), {} plans, lateral error vs plan max {:.3} m rms {:.3} m, \
          max sideslip error {:.3} rad, lane kept {}; plan latency p50 {:.1} ms p99 {:.1} ms; \
-         IPC latency p50 {:.1} us p99 {:.1} us",
+         IPC latency p50 {:.1} us p99 {:.1} us; budget {} ms, plans driven: {} converged, \
+         {} best iterates, {} previous shifted",
         obj["laps_or_distance_m"].as_f64().unwrap_or(f64::NAN),
         obj["laps"].as_f64().unwrap_or(f64::NAN),
         obj["plans_received"],
@@ -275,5 +287,9 @@ fn summary_text(obj: &serde_json::Value) -> String {
         obj["plan_latency_ms_p99"].as_f64().unwrap_or(f64::NAN),
         obj["ipc_latency_us_p50"].as_f64().unwrap_or(f64::NAN),
         obj["ipc_latency_us_p99"].as_f64().unwrap_or(f64::NAN),
+        obj["budget_ms"],
+        obj["plans_converged"],
+        obj["plans_best_iterate"],
+        obj["plans_previous_shifted"],
     )
 }

@@ -1,0 +1,127 @@
+//! Sending a cycle's plan: the publish policy's decision, then the plan written in place
+//! into a loaned shared-memory sample (allocates nothing).
+
+use planner::model::{ix, NU, NX};
+
+use super::{publish_policy, PlannerLoop, Ports, Solved};
+use crate::clock::monotonic_ns;
+use crate::elog;
+use crate::msg::{status_code, PlanKind, VehicleState, HORIZON_N, MSG_VERSION};
+use crate::services::{ipc_err, IpcError};
+
+impl PlannerLoop {
+    /// Decides what the cycle sends ([`publish_policy`]) and publishes it: the planner's
+    /// solution (kept as the previous plan) or the previous plan shifted to the car. Sends
+    /// nothing when there is nothing drivable.
+    pub(super) fn send(
+        &mut self,
+        ports: &Ports,
+        state: &VehicleState,
+        solved: &Solved,
+    ) -> Result<(), IpcError> {
+        let (ds, cycle) = (self.ds, self.cycles);
+        let pol = &mut self.policy;
+        let Some(kind) = pol.decide(solved.info.as_ref(), solved.s_track, state.run_id, ds) else {
+            return Ok(());
+        };
+        let meta = if kind == PlanKind::PreviousShifted {
+            let (s_origin, to_car) = pol.previous.shift_to(solved.s_track, ds);
+            let origin = (s_origin, state.x[ix::T] - to_car);
+            (
+                kind,
+                pol.previous.age(cycle),
+                pol.previous.max_violation(),
+                origin,
+            )
+        } else {
+            let viol = solved.info.as_ref().map_or(0.0, |i| i.max_violation);
+            let (xs, us) = (self.cy.planner.states(), self.cy.planner.controls());
+            pol.previous
+                .store(xs, us, solved.s_track, state.run_id, viol, cycle);
+            if self.published == 0 {
+                // The first plan is out: the steady budget applies from now on.
+                let mut settings = *self.cy.planner.solver().settings();
+                settings.max_time_s = self.budget_ms * 1e-3;
+                if let Err(e) = self.cy.planner.solver_mut().set_settings(settings) {
+                    elog!("planner: cannot set the cycle budget: {e}");
+                }
+            }
+            (kind, 0, viol, (solved.s_track, state.x[ix::T]))
+        };
+        self.publish(ports, state, solved, meta)
+    }
+
+    /// Writes the plan the cycle sends in place into a loaned sample, sends it and notifies
+    /// the tracker. `meta` is (kind, age in cycles, max violation, (s, t) of node 0): a
+    /// [`PlanKind::PreviousShifted`] plan is the previous plan's shifted copy, any other the
+    /// planner's solution.
+    fn publish(
+        &mut self,
+        ports: &Ports,
+        state: &VehicleState,
+        solved: &Solved,
+        (kind, age, viol, (s_origin, t_origin)): (PlanKind, u32, f64, (f64, f64)),
+    ) -> Result<(), IpcError> {
+        let mut sample = ports
+            .publisher
+            .loan_uninit()
+            .map_err(ipc_err("loan trajectory"))?;
+        let p = sample.payload_mut().as_mut_ptr();
+        let (xs, us) = if kind == PlanKind::PreviousShifted {
+            self.policy.previous.shifted_plan()
+        } else {
+            (self.cy.planner.states(), self.cy.planner.controls())
+        };
+        let (status, iterations) = match &solved.info {
+            Some(info) => (info.status, info.iterations),
+            None => (publish_policy::failed_status(), 0),
+        };
+        // SAFETY: `p` points to a properly aligned, writable `Trajectory` in the loaned
+        // shared-memory chunk; every field is written exactly once below (all are plain
+        // `Copy` data), so the sample is fully initialised before `assume_init`.
+        let sample = unsafe {
+            use core::ptr::addr_of_mut;
+            addr_of_mut!((*p).version).write(MSG_VERSION);
+            addr_of_mut!((*p).status).write(status_code(status));
+            addr_of_mut!((*p).seq).write(self.published);
+            addr_of_mut!((*p).road_id).write(self.sc.id);
+            addr_of_mut!((*p).from_run_id).write(state.run_id);
+            addr_of_mut!((*p).from_state_seq).write(state.seq);
+            addr_of_mut!((*p).from_state_stamp_ns).write(state.stamp_ns);
+            addr_of_mut!((*p).iterations).write(iterations.min(u32::MAX as usize) as u32);
+            addr_of_mut!((*p).warm_started).write(u32::from(solved.warm_started));
+            addr_of_mut!((*p).kind).write(kind.code());
+            addr_of_mut!((*p).age_cycles).write(age);
+            addr_of_mut!((*p).max_violation).write(viol);
+            addr_of_mut!((*p).solve_time_s).write(solved.solve_time_s);
+            addr_of_mut!((*p).s_origin).write(s_origin);
+            addr_of_mut!((*p).t_origin).write(t_origin);
+            addr_of_mut!((*p).ds).write(self.ds);
+            addr_of_mut!((*p).x_from).write(state.x);
+            let px = addr_of_mut!((*p).x) as *mut [f64; NX];
+            for k in 0..=HORIZON_N {
+                px.add(k).write(xs[k]);
+            }
+            let pu = addr_of_mut!((*p).u) as *mut [f64; NU];
+            for k in 0..HORIZON_N {
+                pu.add(k).write(us[k]);
+            }
+            addr_of_mut!((*p).stamp_ns).write(monotonic_ns());
+            sample.assume_init()
+        };
+        sample.send().map_err(ipc_err("send trajectory"))?;
+        ports
+            .notifier
+            .notify()
+            .map_err(ipc_err("notify trajectory"))?;
+        // The first plan's cycle runs under the start-up budget: reported on its own.
+        let ns = solved.t0.elapsed().as_nanos() as u64;
+        if self.published == 0 {
+            self.first_cycle_ms = ns as f64 * 1e-6;
+        } else {
+            self.cycle_lat.record_ns(ns);
+        }
+        self.published += 1;
+        Ok(())
+    }
+}

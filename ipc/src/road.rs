@@ -28,6 +28,9 @@ pub enum RoadError {
     /// The planner's config loader rejected a file.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// A track profile is malformed or does not fit its lap length.
+    #[error(transparent)]
+    Track(#[from] planner::track::TrackFileError),
     /// A file could not be read.
     #[error("{path}: {msg}")]
     Read {

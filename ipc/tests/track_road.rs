@@ -136,7 +136,7 @@ fn a_bad_profile_is_refused_naming_file_and_row() {
     let ok = |rows: &str| format!("{head}0.0,0.0,4.0,4.0\n1.0,0.0,4.0,4.0\n{rows}");
     let e = refused("nan", &ok("2.0,NaN,4.0,4.0\n3.0,0.0,4.0,4.0\n"), 4.0);
     assert!(e.contains(":4:"), "{e}");
-    let e = refused("order", &ok("1.5,0.0,4.0,4.0\n3.0,0.0,4.0,4.0\n"), 4.0);
+    let e = refused("order", &ok("0.5,0.0,4.0,4.0\n3.0,0.0,4.0,4.0\n"), 4.0);
     assert!(e.contains(":4:") && e.contains("increasing"), "{e}");
     let e = refused("width", &ok("2.0,0.0,-1.0,4.0\n3.0,0.0,4.0,4.0\n"), 4.0);
     assert!(e.contains(":4:") && e.contains("w_right_m"), "{e}");

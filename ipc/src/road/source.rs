@@ -183,7 +183,7 @@ fn load_track(
     vehicle: VehicleParams,
     settings: planner::ip::Settings,
 ) -> Result<Scenario, RoadError> {
-    let profile = Profile::load(path, lap).map_err(|e| read_err(path, e))?;
+    let profile = Profile::load(path, lap)?;
     let bytes = std::fs::read(path).map_err(|e| read_err(path, e))?;
     let road = ClosedRoad::from_profile(profile);
     let mut w = RoadWindow::default();

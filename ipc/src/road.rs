@@ -6,7 +6,7 @@
 //! sampled linearly between its rows with e_min = -w_right, e_max = w_left) is periodic:
 //! every lookup takes s mod lap, so a planning window that crosses s = lap reads the start
 //! of the lap on. An open road (an obstacle scenario) is straight past its scenario's
-//! stretch and replaces the lane bounds at its obstacles ([`source`]).
+//! stretch and replaces the lane bounds at its obstacles ([`RoadArgs`]).
 
 use std::path::{Path, PathBuf};
 

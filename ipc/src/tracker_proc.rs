@@ -648,6 +648,7 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     }
     let mut report = tl.report(args, end_reason);
     laps::finish_report(&mut report, &tl.log, outcome(&tl, end_reason), tl.start);
+    report["no_feasible_plan_braking"] = tl.no_feasible_plan.into();
     if let Some(dir) = &args.trace_dir {
         if let Err(e) = tl.log.write(dir) {
             elog!("tracker: --trace-dir: {e}");
@@ -656,11 +657,14 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     Ok(report)
 }
 
-/// How the drive ended, in one word (`outcome` of the report).
+/// How the drive ended, in one word (`outcome` of the report): a stop for want of a
+/// feasible plan before the end, else the obstacles' verdict, else whether the drive was
+/// completed.
 fn outcome(tl: &TrackerLoop, end_reason: &str) -> &'static str {
     let reached = end_reason == "distance reached";
-    if tl.no_feasible_plan {
-        let in_lane = tl.log.json()["lane_kept"].as_bool() == Some(true);
+    let log = tl.log.json();
+    if tl.no_feasible_plan && !reached {
+        let in_lane = log["lane_kept"].as_bool() == Some(true);
         return if tl.plant.stopped && in_lane {
             "stopped_in_lane_no_feasible_plan"
         } else if tl.plant.stopped {
@@ -670,7 +674,7 @@ fn outcome(tl: &TrackerLoop, end_reason: &str) -> &'static str {
         };
     }
     if !tl.sc.road.obstacles().is_empty() {
-        return match tl.log.json()["obstacles_cleared"].as_bool() {
+        return match log["obstacles_cleared"].as_bool() {
             Some(false) => "collided",
             _ if reached => "cleared",
             _ => "not_reached",

@@ -3,8 +3,13 @@
 //! loading of a track profile or an obstacle scenario into a [`Scenario`].
 //!
 //! A track's planning problem is the race-segment OCP (`config/scenarios/segments.toml`
-//! defaults: N = 100 over 250 m, 5 <= V <= 70 m/s, tire saturation on, steering-slew
-//! weight 1 1/s) whose road is the profile's window ahead of the car. The road id hashes
+//! defaults: N = 100 over 250 m, tire saturation on, steering-slew weight 1 1/s) whose
+//! road is the profile's window ahead of the car, with the speed capped at
+//! `--track-v-max-mps` (default 55 m/s). The cap keeps the replanning recursively
+//! feasible: the OCP's end state is free, so a plan only brakes for the corners inside its
+//! 250 m window; from 70 m/s a hairpin (about 12 m/s) that enters the window is already
+//! closer than the braking distance, and the next plan from the measured state is
+//! infeasible. From 55 m/s the braking to 12 m/s takes about 160 m at 9 m/s^2. The road id hashes
 //! the profile's bytes and the lap length, so processes given different tracks refuse
 //! each other's messages.
 
@@ -21,15 +26,16 @@ use crate::msg::{fnv1a, HORIZON_N};
 
 /// Planning horizon on a track \[m\] (N = 100 intervals of 2.5 m).
 pub const TRACK_HORIZON_M: f64 = 250.0;
-/// Speed bounds of the planner on a track [m/s].
-pub const TRACK_SPEEDS_MPS: (f64, f64) = (5.0, 70.0);
+/// Speed bounds of the planner on a track [m/s] (the upper one is the default of
+/// `--track-v-max-mps`).
+pub const TRACK_SPEEDS_MPS: (f64, f64) = (5.0, 55.0);
 /// Steering-slew weight of the planner on a track [1/s].
 pub const TRACK_SLEW_WEIGHT: f64 = 1.0;
 
 /// The road options both processes take (they must be given the same ones).
 // clap prints these doc comments as the --help text: unit brackets stay unescaped.
 #[allow(rustdoc::broken_intra_doc_links)]
-#[derive(clap::Args, Debug, Clone, Default)]
+#[derive(clap::Args, Debug, Clone)]
 pub struct RoadArgs {
     /// Drive this closed track (a name in the track index, e.g. Austin) instead of --scenario.
     #[arg(long, conflicts_with_all = ["track_profile", "segment"])]
@@ -56,6 +62,26 @@ pub struct RoadArgs {
     /// body is alongside; 0: the scenario's bound at the CG only).
     #[arg(long, default_value_t = 0.5 * crate::road::footprint::CAR_LENGTH_M)]
     pub obstacle_reach_m: f64,
+    /// Speed cap of the planner on a track [m/s] (the braking from it to the slowest
+    /// corner must fit the 250 m window).
+    #[arg(long, default_value_t = TRACK_SPEEDS_MPS.1)]
+    pub track_v_max_mps: f64,
+}
+
+impl Default for RoadArgs {
+    /// The command line's defaults: the scenario's road.
+    fn default() -> Self {
+        Self {
+            track: None,
+            tracks_index: PathBuf::from("config/tracks/tracks.toml"),
+            track_profile: None,
+            lap_length_m: None,
+            segment: None,
+            tire_saturation: None,
+            obstacle_reach_m: 0.5 * crate::road::footprint::CAR_LENGTH_M,
+            track_v_max_mps: TRACK_SPEEDS_MPS.1,
+        }
+    }
 }
 
 /// Which road the options name.
@@ -154,7 +180,19 @@ impl Scenario {
             Source::Track(profile, lap, name) => {
                 let params = load_vehicle(vehicle)?;
                 let settings = load_solver(solver)?;
-                load_track(&profile, lap, &name, params, settings)?
+                let v_max = road.track_v_max_mps;
+                if !(v_max.is_finite() && v_max > TRACK_SPEEDS_MPS.0) {
+                    return Err(unsupported(
+                        Path::new("--track-v-max-mps"),
+                        format!(
+                            "{v_max}: must be finite and above {} m/s",
+                            TRACK_SPEEDS_MPS.0
+                        ),
+                    ));
+                }
+                let mut sc = load_track(&profile, lap, &name, params, settings)?;
+                sc.spec.v_max = v_max;
+                sc
             }
             Source::Swerve(seg) => {
                 if !(road.obstacle_reach_m.is_finite() && road.obstacle_reach_m >= 0.0) {

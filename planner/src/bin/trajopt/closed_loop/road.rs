@@ -47,7 +47,7 @@ pub struct RoadOpts {
     /// (default: half the car's body length; 0: the scenario's bound at the CG only).
     #[arg(long)]
     pub obstacle_reach_m: Option<f64>,
-    /// Folder for the figures <road>_lap.png and <road>_speed.png.
+    /// Folder for the figures ROAD_lap.png and ROAD_speed.png.
     #[arg(long, default_value = "out")]
     pub out_dir: PathBuf,
 }

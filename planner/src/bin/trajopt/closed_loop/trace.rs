@@ -53,7 +53,7 @@ pub fn read(dir: &Path) -> Result<(Driven, Vec<PlanLine>), String> {
     Ok((Driven { rows }, plans))
 }
 
-/// The reference lap time [s] and its edge margin [m] of `track` in `file`, if listed.
+/// The reference lap time \[s\] and its edge margin \[m\] of `track` in `file`, if listed.
 pub fn reference_lap(file: &Path, track: &str) -> Option<(f64, f64)> {
     let text = std::fs::read_to_string(file).ok()?;
     let t: toml::Table = toml::from_str(&text).ok()?;

@@ -71,9 +71,13 @@ pub struct TrackerArgs {
     #[arg(long, default_value_t = 60.0)]
     pub duration_s: f64,
     /// Start speed [m/s]: straight-line cruise at --start-s in the lane centre (default:
-    /// the scenario's fixed initial state, else node 0 of a free-start solve there).
+    /// the scenario's fixed initial state, else --free-start, else 15 m/s).
     #[arg(long)]
     pub v0: Option<f64>,
+    /// Start at node 0 of a free-start solve at --start-s (a flying start) unless --v0 is
+    /// given or the scenario fixes the initial state.
+    #[arg(long)]
+    pub free_start: bool,
     /// Plant integration step [s].
     #[arg(long, default_value_t = 0.00025)]
     pub plant_dt_s: f64,
@@ -341,8 +345,13 @@ impl TrackerLoop {
         } else {
             args.laps as f64 * sc.road.lap()
         };
-        let (x0, start) = initial_state(&sc, args.start_s, args.v0, args.lane_margin_m)
-            .map_err(TrackerProcError::Setup)?;
+        let (x0, start) = initial_state(
+            &sc,
+            args.start_s,
+            (args.v0, args.free_start),
+            args.lane_margin_m,
+        )
+        .map_err(TrackerProcError::Setup)?;
         let log = RunLog::new(&sc.road, args.start_s, args.laps, args.duration_s);
         let substeps = (args.control_dt_s / args.plant_dt_s).round().max(1.0) as usize;
         let plant_dt = args.control_dt_s / substeps as f64;

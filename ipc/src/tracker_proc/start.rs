@@ -1,6 +1,7 @@
 //! Where the car starts: at road s = start_s, either in the lane centre in straight-line
-//! cruise at a given speed, at the scenario's fixed initial state (the swerve), or, by
-//! default on a road with a free initial state, at node 0 of a free-start solve over the
+//! cruise at a given speed (15 m/s when nothing else is asked for), at the scenario's
+//! fixed initial state (the swerve), or, asked for on a road with a free initial state, at
+//! node 0 of a free-start solve over the
 //! planner's window at start_s (speed, sideslip, yaw rate, wheel speed, load transfer and
 //! lateral position of the minimum-time plan; heading error 0 by the OCP's convention): a
 //! flying start at the pace the planner itself would choose there.
@@ -14,14 +15,18 @@ use crate::msg::HORIZON_N;
 use crate::planner_proc::MARGIN_RAMP_M;
 use crate::road::{RoadWindow, Scenario};
 
+/// Cruise speed of a start with no speed given and no free-start solve asked for [m/s].
+pub const DEFAULT_V0_MPS: f64 = 15.0;
+
 /// The start state and how it was chosen (`"cruise"`, `"scenario"`, `"free_start_solve"`).
 pub fn initial_state(
     sc: &Scenario,
     start_s: f64,
-    v0: Option<f64>,
+    (v0, free_start): (Option<f64>, bool),
     margin: f64,
 ) -> Result<([f64; NX], &'static str), String> {
-    if let Some(v) = v0 {
+    let fixed = matches!(sc.spec.initial, InitialState::Fixed(_));
+    if let Some(v) = v0.or((!fixed && !free_start).then_some(DEFAULT_V0_MPS)) {
         let (lo, hi) = sc.road.edges(start_s);
         let mut x = [0.0; NX];
         x[ix::V] = v;

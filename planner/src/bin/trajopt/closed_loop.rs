@@ -184,9 +184,10 @@ fn spawn_pair(
         .arg(args.road.start_s.to_string())
         .arg("--trace-dir")
         .arg(trace_dir);
-    if let Some(v) = args.road.initial_speed_mps {
-        tc.arg("--v0").arg(v.to_string());
-    }
+    match args.road.initial_speed_mps {
+        Some(v) => tc.arg("--v0").arg(v.to_string()),
+        None => tc.arg("--free-start"),
+    };
     let tracker = ChildGuard(Some(
         tc.spawn()
             .map_err(|e| format!("{}: {e}", tracker_exe.display()))?,

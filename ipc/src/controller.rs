@@ -111,7 +111,13 @@ mod tests {
         let road = ClosedRoad::new(vec![(0.0, 0.0)], 10_000.0, -4.0, 4.0);
         let (control_dt, substeps) = (0.001, 4);
         let v = 20.0;
-        let mut car = Car::new(&p, &mismatch, v, control_dt, 5);
+        let mut car = Car::new(
+            &p,
+            &mismatch,
+            crate::plant::Plant::cruise(p, v).x,
+            control_dt,
+            5,
+        );
         car.plant.x[ix::E] = 0.5;
         let ctl = Controller::new(&p, control_dt, 0.07).unwrap();
         let plan = straight_plan(v);

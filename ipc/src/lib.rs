@@ -14,9 +14,9 @@
 
 pub mod clock;
 pub mod controller;
+pub mod kinds;
 pub mod lqr;
 pub mod mismatch;
-pub mod kinds;
 pub mod msg;
 pub mod out;
 pub mod planner_proc;

@@ -47,9 +47,12 @@ pub const MARGIN_RAMP_M: f64 = 20.0;
 #[allow(rustdoc::broken_intra_doc_links)]
 #[derive(clap::Args, Debug, Clone)]
 pub struct PlannerArgs {
-    /// Scenario file (a closed road).
+    /// Scenario file (a closed road, or an obstacle file with --segment).
     #[arg(long, default_value = "config/scenarios/oval.toml")]
     pub scenario: PathBuf,
+    /// The road options (--track, --track-profile, --segment, ...).
+    #[command(flatten)]
+    pub road: crate::road::RoadArgs,
     /// Vehicle file.
     #[arg(long, default_value = "config/vehicles/lc500.toml")]
     pub vehicle: PathBuf,
@@ -335,13 +338,14 @@ impl PlannerLoop {
         }
         let (budget_ms, first_budget_ms) = budget::budgets_ms(args)?;
         crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
-        let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
+        let sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
-        if 2.0 * args.lane_margin_m >= sc.road.e_max() - sc.road.e_min() {
-            return Err(PlannerProcError::Setup(
-                "--lane-margin-m leaves no lane".into(),
-            ));
-        }
+        sc.road.check_margin(args.lane_margin_m).map_err(|e| {
+            PlannerProcError::Setup(format!(
+                "--lane-margin-m on {}: {e}",
+                args.road.road_file(&args.scenario).display()
+            ))
+        })?;
         let mut settings = sc.settings;
         settings.max_time_s = budget_ms * 1e-3;
         let ds = sc.ds();
@@ -461,11 +465,11 @@ impl PlannerLoop {
     /// marked as planned) when it lies outside the planner's domain.
     fn start_state(&mut self, state: &VehicleState) -> Option<[f64; NX]> {
         let cy = &mut self.cy;
-        self.sc.road.window(
+        self.sc.road.window_from(
             state.x[ix::S],
+            state.x[ix::E],
             self.ds,
-            self.margin,
-            MARGIN_RAMP_M,
+            (self.margin, MARGIN_RAMP_M),
             &mut cy.road,
         );
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds

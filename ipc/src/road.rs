@@ -1,16 +1,26 @@
-//! The closed road both processes drive on: exact piecewise-constant curvature of the
-//! scenario (`[track] kappa_pieces`), wrapped modulo the lap, plus the lane bounds; and
-//! the scenario as a whole (OCP template, solver settings, road id).
+//! The road both processes drive on, and the scenario as a whole (OCP template, solver
+//! settings, road id).
+//!
+//! The road is k_ref(s) with lane edges e_min(s) < e_max(s) along the car's unwrapped arc
+//! length s. A closed road (the oval's exact `[track] kappa_pieces`, or a track profile
+//! sampled linearly between its rows with e_min = -w_right, e_max = w_left) is periodic:
+//! every lookup takes s mod lap, so a planning window that crosses s = lap reads the start
+//! of the lap on. An open road (an obstacle scenario) is straight past its scenario's
+//! stretch and replaces the lane bounds at its obstacles ([`RoadArgs`]).
 
 use std::path::{Path, PathBuf};
 
 use planner::config::{load_scenario_for_horizon, load_solver, load_vehicle, ConfigError};
 use planner::ip::Settings;
 use planner::ocp::OcpSpec;
-use planner::track::piecewise_constant;
+use planner::track::{piecewise_constant, BoundsOverride, Profile};
 use serde::Deserialize;
 
 use crate::msg::{fnv1a, RoadId, HORIZON_N};
+
+pub mod footprint;
+mod source;
+pub use source::{RoadArgs, TRACK_HORIZON_M, TRACK_SLEW_WEIGHT, TRACK_SPEEDS_MPS};
 
 /// Why a scenario cannot be used for the closed loop.
 #[derive(Debug, thiserror::Error)]
@@ -18,6 +28,9 @@ pub enum RoadError {
     /// The planner's config loader rejected a file.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// A track profile is malformed or does not fit its lap length.
+    #[error(transparent)]
+    Track(#[from] planner::track::TrackFileError),
     /// A file could not be read.
     #[error("{path}: {msg}")]
     Read {
@@ -54,66 +67,235 @@ struct TrackToml {
     e_max_m: Option<f64>,
 }
 
-/// A closed road: curvature k_ref(s mod lap) and constant lane bounds.
+/// The lane geometry of a road: exact pieces with constant bounds (the oval, the
+/// straight of the swerve), or a sampled track profile with its widths.
+#[derive(Debug, Clone, PartialEq)]
+enum Shape {
+    /// Piecewise-constant curvature [(s_start, kappa)] and constant lane edges.
+    Pieces {
+        pieces: Vec<(f64, f64)>,
+        e_min: f64,
+        e_max: f64,
+    },
+    /// A closed track profile: e_min(s) = -w_right(s), e_max(s) = w_left(s).
+    Profile(Profile),
+}
+
+/// The road both processes drive on: curvature k_ref(s) and lane edges e_min(s) < e_max(s)
+/// along the unwrapped arc length s.
+///
+/// A closed road repeats with its lap length (s mod lap everywhere, so a window that
+/// crosses s = lap continues from s = 0); an open road (the swerve) is its scenario's
+/// stretch followed by a straight with the nominal lane, and carries obstacles as lateral
+/// bound overrides at fixed road s.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ClosedRoad {
-    pieces: Vec<(f64, f64)>,
+    shape: Shape,
     lap: f64,
-    e_min: f64,
-    e_max: f64,
+    closed: bool,
+    obstacles: Vec<BoundsOverride>,
+    /// How far the planner's obstacle bounds reach past each obstacle's s interval \[m\].
+    reach: f64,
 }
 
 impl ClosedRoad {
-    /// A road from pieces (s_start, kappa), a lap length and lane bounds (no checks).
+    /// A closed road from pieces (s_start, kappa), a lap length and lane bounds (no checks).
     pub fn new(pieces: Vec<(f64, f64)>, lap: f64, e_min: f64, e_max: f64) -> Self {
         Self {
-            pieces,
+            shape: Shape::Pieces {
+                pieces,
+                e_min,
+                e_max,
+            },
             lap,
-            e_min,
-            e_max,
+            closed: true,
+            obstacles: Vec::new(),
+            reach: 0.0,
         }
     }
 
-    /// k_ref at track arc length s (any real s; wraps modulo the lap) [1/m].
-    pub fn kappa(&self, s: f64) -> f64 {
-        piecewise_constant(&self.pieces, s.rem_euclid(self.lap))
+    /// A closed road from a track profile (periodic with the profile's lap length).
+    pub fn from_profile(profile: Profile) -> Self {
+        let lap = profile.lap_length();
+        Self {
+            shape: Shape::Profile(profile),
+            lap,
+            closed: true,
+            obstacles: Vec::new(),
+            reach: 0.0,
+        }
     }
 
-    /// Lap length \[m\].
+    /// An open road of `length` \[m\]: constant curvature `kappa`, lane [e_min, e_max] and
+    /// the obstacles (bounds replaced on [s_from, s_to] of road s); past `length` it goes
+    /// on with the same curvature and lane.
+    pub fn open(
+        length: f64,
+        kappa: f64,
+        e_min: f64,
+        e_max: f64,
+        obstacles: Vec<BoundsOverride>,
+    ) -> Self {
+        Self {
+            shape: Shape::Pieces {
+                pieces: vec![(0.0, kappa)],
+                e_min,
+                e_max,
+            },
+            lap: length,
+            closed: false,
+            obstacles,
+            reach: 0.0,
+        }
+    }
+
+    /// k_ref at road arc length s (any real s; a closed road wraps modulo the lap) [1/m].
+    pub fn kappa(&self, s: f64) -> f64 {
+        match &self.shape {
+            Shape::Pieces { pieces, .. } if self.closed => {
+                piecewise_constant(pieces, s.rem_euclid(self.lap))
+            }
+            Shape::Pieces { pieces, .. } => piecewise_constant(pieces, s),
+            Shape::Profile(p) => p.sample(s).0,
+        }
+    }
+
+    /// Lane edges (e_min, e_max) at road arc length s, obstacles not included \[m\].
+    pub fn edges(&self, s: f64) -> (f64, f64) {
+        match &self.shape {
+            Shape::Pieces { e_min, e_max, .. } => (*e_min, *e_max),
+            Shape::Profile(p) => {
+                let (_, w_right, w_left) = p.sample(s);
+                (-w_right, w_left)
+            }
+        }
+    }
+
+    /// Lap length \[m\] (an open road: the length of its scenario's stretch).
     pub fn lap(&self) -> f64 {
         self.lap
     }
 
-    /// Right lane edge \[m\].
+    /// True for a closed road (s wraps with the lap).
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// The road with the planner's obstacle bounds reaching `reach` \[m\] past both ends
+    /// of each obstacle (half the car's length keeps the CG bound on while any part of the
+    /// body is alongside the obstacle; 0 is the scenario's bound at the CG only).
+    pub fn with_obstacle_reach(mut self, reach: f64) -> Self {
+        self.reach = reach;
+        self
+    }
+
+    /// The obstacles: lateral bounds replaced on closed intervals of road s.
+    pub fn obstacles(&self) -> &[BoundsOverride] {
+        &self.obstacles
+    }
+
+    /// The track profile of a road made from one.
+    pub fn profile(&self) -> Option<&Profile> {
+        match &self.shape {
+            Shape::Profile(p) => Some(p),
+            Shape::Pieces { .. } => None,
+        }
+    }
+
+    /// Narrowest lane width anywhere on the road \[m\] (at the profile rows of a track).
+    pub fn min_width(&self) -> f64 {
+        match &self.shape {
+            Shape::Pieces { e_min, e_max, .. } => e_max - e_min,
+            Shape::Profile(p) => p
+                .w_right()
+                .iter()
+                .zip(p.w_left())
+                .map(|(r, l)| r + l)
+                .fold(f64::INFINITY, f64::min),
+        }
+    }
+
+    /// Right lane edge of the narrowest lane \[m\] (the largest e_min).
     pub fn e_min(&self) -> f64 {
-        self.e_min
+        match &self.shape {
+            Shape::Pieces { e_min, .. } => *e_min,
+            Shape::Profile(p) => -p.w_right().iter().copied().fold(f64::INFINITY, f64::min),
+        }
     }
 
-    /// Left lane edge \[m\].
+    /// Left lane edge of the narrowest lane \[m\] (the smallest e_max).
     pub fn e_max(&self) -> f64 {
-        self.e_max
+        match &self.shape {
+            Shape::Pieces { e_max, .. } => *e_max,
+            Shape::Profile(p) => p.w_left().iter().copied().fold(f64::INFINITY, f64::min),
+        }
     }
 
-    /// Road ahead of track s0 at the N + 1 nodes s0 + k ds, lane shrunk by `margin` on
+    /// Road ahead of road s0 at the N + 1 nodes s0 + k ds, lane shrunk by `margin` on
     /// both sides; the margin ramps in linearly over the first `ramp` metres so a car that
-    /// is already inside the margin can still be planned for. Allocates nothing.
+    /// is already inside the margin can still be planned for. An obstacle whose interval
+    /// holds a node's road s replaces (intersects) that node's bounds, shrunk by the same
+    /// margin, over the interval widened by the obstacle reach. Allocates nothing.
     pub fn window(&self, s0: f64, ds: f64, margin: f64, ramp: f64, out: &mut RoadWindow) {
+        self.window_with(s0, ds, out, |s| {
+            let m = if ramp > 0.0 {
+                margin * (s / ramp).min(1.0)
+            } else {
+                margin
+            };
+            (m, m)
+        });
+    }
+
+    /// The window with the (right, left) margin a function of the local s.
+    fn window_with(
+        &self,
+        s0: f64,
+        ds: f64,
+        out: &mut RoadWindow,
+        margin_at: impl Fn(f64) -> (f64, f64),
+    ) {
         let RoadWindow {
             kappa,
             e_min,
             e_max,
         } = out;
         for k in 0..=HORIZON_N {
-            kappa[k] = self.kappa(s0 + k as f64 * ds);
-            let s = k as f64 * ds;
-            let m = if ramp > 0.0 {
-                margin * (s / ramp).min(1.0)
-            } else {
-                margin
-            };
-            e_min[k] = self.e_min + m;
-            e_max[k] = self.e_max - m;
+            let s_road = s0 + k as f64 * ds;
+            kappa[k] = self.kappa(s_road);
+            let (mr, ml) = margin_at(k as f64 * ds);
+            let (lo, hi) = self.edges(s_road);
+            e_min[k] = lo + mr;
+            e_max[k] = hi - ml;
+            for o in &self.obstacles {
+                if o.s_from - self.reach <= s_road && s_road <= o.s_to + self.reach {
+                    e_min[k] = e_min[k].max(o.e_min + mr);
+                    e_max[k] = e_max[k].min(o.e_max - ml);
+                }
+            }
         }
+    }
+
+    /// [`Self::window`] for a car at lateral position `e0`: on each side the margin ramps
+    /// in from the car's own distance inside that edge (at most `margin`) rather than
+    /// from 0, so successive plans never lead a car that keeps the margin closer to the
+    /// edge than the margin, while a car already inside it can still be planned for.
+    /// Allocates nothing.
+    pub fn window_from(
+        &self,
+        s0: f64,
+        e0: f64,
+        ds: f64,
+        (margin, ramp): (f64, f64),
+        out: &mut RoadWindow,
+    ) {
+        let (lo0, hi0) = self.edges(s0);
+        let right0 = (e0 - lo0).clamp(0.0, margin);
+        let left0 = (hi0 - e0).clamp(0.0, margin);
+        self.window_with(s0, ds, out, |s| {
+            let w = if ramp > 0.0 { (s / ramp).min(1.0) } else { 1.0 };
+            (right0 + (margin - right0) * w, left0 + (margin - left0) * w)
+        });
     }
 }
 
@@ -147,8 +329,36 @@ pub struct Scenario {
     pub settings: Settings,
     /// The closed road.
     pub road: ClosedRoad,
-    /// Road id (hash of the scenario file).
+    /// Road id (hash of the scenario file, or of the track profile and its lap length).
     pub id: RoadId,
+}
+
+impl ClosedRoad {
+    /// `Err` naming the first profile row (0-based, with its s) where a lane shrunk by
+    /// `margin` on both sides leaves no room.
+    pub fn check_margin(&self, margin: f64) -> Result<(), String> {
+        match &self.shape {
+            Shape::Pieces { e_min, e_max, .. } => {
+                if 2.0 * margin >= e_max - e_min {
+                    return Err(format!(
+                        "a lane margin of {margin} m leaves no lane between {e_min} and {e_max} m"
+                    ));
+                }
+            }
+            Shape::Profile(p) => {
+                for (i, (r, l)) in p.w_right().iter().zip(p.w_left()).enumerate() {
+                    if 2.0 * margin >= r + l {
+                        return Err(format!(
+                            "row {i} (s = {} m): a lane margin of {margin} m leaves no lane in w_right + w_left = {} m",
+                            i as f64 * p.step(),
+                            r + l
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Scenario {

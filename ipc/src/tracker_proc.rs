@@ -17,8 +17,9 @@ use planner::model::ix;
 use crate::clock::monotonic_ns;
 use crate::controller::Controller;
 use crate::elog;
-use crate::mismatch::Mismatch;
 use crate::kinds::KindCounts;
+use crate::mismatch::Mismatch;
+use crate::msg::PlanKind;
 use crate::msg::{
     new_run_id, RoadId, RunId, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED,
 };
@@ -27,7 +28,12 @@ use crate::road::Scenario;
 use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
-use crate::tracker::{brake_to_stop, reference, ForeignPlans, Gains, Ownership};
+use crate::tracker::{brake_to_stop, ForeignPlans, Gains, Ownership};
+
+mod laps;
+mod start;
+pub use laps::RunLog;
+pub use start::initial_state;
 
 /// Command-line options of `tracker_proc`.
 // clap prints these doc comments as the --help text, which would show the escapes of
@@ -35,9 +41,24 @@ use crate::tracker::{brake_to_stop, reference, ForeignPlans, Gains, Ownership};
 #[allow(rustdoc::broken_intra_doc_links)]
 #[derive(clap::Args, Debug, Clone)]
 pub struct TrackerArgs {
-    /// Scenario file (a closed road).
+    /// Scenario file (a closed road, or an obstacle file with --segment).
     #[arg(long, default_value = "config/scenarios/oval.toml")]
     pub scenario: PathBuf,
+    /// The road options (--track, --track-profile, --segment, ...).
+    #[command(flatten)]
+    pub road: crate::road::RoadArgs,
+    /// Road s where the car starts [m].
+    #[arg(long, default_value_t = 0.0)]
+    pub start_s: f64,
+    /// Laps to drive when --distance-m is 0.
+    #[arg(long, default_value_t = 1)]
+    pub laps: usize,
+    /// Lane margin of the planner's window [m] (for the free-start solve of the start state).
+    #[arg(long, default_value_t = 0.5)]
+    pub lane_margin_m: f64,
+    /// Write the driven trace (driven.csv) and the plans taken (plans.csv) into this folder.
+    #[arg(long)]
+    pub trace_dir: Option<PathBuf>,
     /// Vehicle file (the planner's model; the controller is designed on it).
     #[arg(long, default_value = "config/vehicles/lc500.toml")]
     pub vehicle: PathBuf,
@@ -56,15 +77,20 @@ pub struct TrackerArgs {
     /// iceoryx2 service-name prefix (unique per closed loop).
     #[arg(long, default_value = crate::services::DEFAULT_PREFIX)]
     pub service_prefix: String,
-    /// Distance to drive before stopping [m] (0: one lap).
+    /// Distance to drive before stopping [m] (0: --laps laps).
     #[arg(long, default_value_t = 0.0)]
     pub distance_m: f64,
     /// Simulated time after which to stop regardless [s].
     #[arg(long, default_value_t = 60.0)]
     pub duration_s: f64,
-    /// Start speed [m/s] (straight-line cruise at s = 0, lane centre).
-    #[arg(long, default_value_t = 15.0)]
-    pub v0: f64,
+    /// Start speed [m/s]: straight-line cruise at --start-s in the lane centre (default:
+    /// the scenario's fixed initial state, else --free-start, else 15 m/s).
+    #[arg(long)]
+    pub v0: Option<f64>,
+    /// Start at node 0 of a free-start solve at --start-s (a flying start) unless --v0 is
+    /// given or the scenario fixes the initial state.
+    #[arg(long)]
+    pub free_start: bool,
     /// Plant integration step [s].
     #[arg(long, default_value_t = 0.00025)]
     pub plant_dt_s: f64,
@@ -174,9 +200,21 @@ fn check_args(args: &TrackerArgs) -> Result<(), TrackerProcError> {
         ),
         (
             "--v0",
-            args.v0,
-            args.v0 > 3.0 && args.v0.is_finite(),
+            args.v0.unwrap_or(10.0),
+            args.v0.is_none_or(|v| v > 3.0 && v.is_finite()),
             "must be finite and > 3 m/s",
+        ),
+        (
+            "--start-s",
+            args.start_s,
+            args.start_s.is_finite() && args.start_s >= 0.0,
+            "must be finite and >= 0",
+        ),
+        (
+            "--laps",
+            args.laps as f64,
+            (1..=100).contains(&args.laps),
+            "must lie in [1, 100]",
         ),
     ];
     match checks.iter().find(|c| !c.2) {
@@ -306,19 +344,34 @@ struct TrackerLoop {
     stopped_at: Option<Instant>,
     e_hold: f64,
     sim_start: Option<Instant>,
+    /// The drive's log (laps, margins, obstacles, trace).
+    log: RunLog,
+    /// How the start state was chosen.
+    start: &'static str,
+    /// Braking to a stop in the lane because the planner found no feasible plan (obstacle
+    /// roads: a non-converged plan is never followed there); latched.
+    no_feasible_plan: bool,
 }
 
 impl TrackerLoop {
     /// Checks the options, loads the files and derives the step sizes.
     fn setup(args: &TrackerArgs) -> Result<Self, TrackerProcError> {
         check_args(args)?;
-        let sc = Scenario::load(&args.scenario, &args.vehicle, &args.solver)
+        let sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| TrackerProcError::Setup(e.to_string()))?;
         let distance = if args.distance_m > 0.0 {
             args.distance_m
         } else {
-            sc.road.lap()
+            args.laps as f64 * sc.road.lap()
         };
+        let (x0, start) = initial_state(
+            &sc,
+            args.start_s,
+            (args.v0, args.free_start),
+            args.lane_margin_m,
+        )
+        .map_err(TrackerProcError::Setup)?;
+        let log = RunLog::new(&sc.road, args.start_s, args.laps, args.duration_s);
         let substeps = (args.control_dt_s / args.plant_dt_s).round().max(1.0) as usize;
         let plant_dt = args.control_dt_s / substeps as f64;
         let per_publish = (args.publish_dt_s / args.control_dt_s).round().max(1.0) as usize;
@@ -333,7 +386,7 @@ impl TrackerLoop {
         let mut car = Car::new(
             &plant_params,
             &mismatch,
-            args.v0,
+            x0,
             args.control_dt_s,
             args.noise_seed,
         );
@@ -369,8 +422,11 @@ impl TrackerLoop {
             stale: false,
             stale_at_s: f64::NAN,
             stopped_at: None,
-            e_hold: 0.0,
+            e_hold: x0[ix::E],
             sim_start: None,
+            log,
+            start,
+            no_feasible_plan: false,
         })
     }
 
@@ -387,8 +443,24 @@ impl TrackerLoop {
             {
                 continue;
             }
+            self.log.plan(m, plant.x[ix::S]);
             if !matches!(m.status, 0 | 1) {
                 self.plans_not_converged += 1;
+            }
+            if m.kind == PlanKind::PreviousShifted.code() && !self.sc.road.obstacles().is_empty() {
+                // Among obstacles, a cycle that found no drivable plan ends the drive: the
+                // car brakes to a stop in its lane instead of driving an old plan on.
+                if !self.no_feasible_plan {
+                    elog!(
+                        "tracker: plan {} ended with status {} and no drivable plan; braking to a stop in the lane",
+                        m.seq,
+                        m.status
+                    );
+                    self.no_feasible_plan = true;
+                    self.e_hold = plant.x[ix::E];
+                }
+                self.sim_start.get_or_insert_with(Instant::now);
+                continue;
             }
             self.kinds.count_code(m.kind);
             *self.plan = *m;
@@ -440,7 +512,7 @@ impl TrackerLoop {
             // The feedback sees the measured state; the statistics the true one.
             let y = car.measure();
             self.measured = y;
-            let control = if self.stale {
+            let control = if self.stale || self.no_feasible_plan {
                 None
             } else {
                 self.controller.control(&self.plan, &y)
@@ -460,6 +532,7 @@ impl TrackerLoop {
                 None => brake_to_stop(&params, &self.gains, &y, road, self.e_hold),
             };
             car.drive(u, road, self.substeps, self.plant_dt);
+            self.log.step(&car.plant.x, road);
             stats.e_lo = stats.e_lo.min(car.plant.x[ix::E]);
             stats.e_hi = stats.e_hi.max(car.plant.x[ix::E]);
         }
@@ -492,7 +565,7 @@ impl TrackerLoop {
 
     /// Why the run ends after the pass at `now`, if it does.
     fn end_reason(&self, args: &TrackerArgs, now: Instant) -> Option<&'static str> {
-        if self.car.plant.x[ix::S] >= self.distance {
+        if self.car.plant.x[ix::S] >= args.start_s + self.distance {
             return Some("distance reached");
         }
         if self.car.plant.x[ix::T] >= args.duration_s {
@@ -515,7 +588,9 @@ impl TrackerLoop {
         } else {
             0.0
         };
-        let lane_kept = stats.e_lo >= road.e_min() && stats.e_hi <= road.e_max();
+        let log = self.log.json();
+        let lane_kept = log["lane_kept"].as_bool().unwrap_or(false);
+        let driven = plant.x[ix::S] - args.start_s;
         elog!(
             "tracker: {end_reason}: {:.1} m in {:.2} s, {} plans ({} foreign ignored), max |e - e_plan| {:.3} m, rms {:.3} m, lane [{:.2}, {:.2}] m{}",
             plant.x[ix::S],
@@ -533,8 +608,8 @@ impl TrackerLoop {
         let mut obj = serde_json::json!({
             "process": "tracker",
             "end_reason": end_reason,
-            "laps_or_distance_m": plant.x[ix::S],
-            "laps": plant.x[ix::S] / road.lap(),
+            "laps_or_distance_m": driven,
+            "laps": driven / road.lap(),
             "sim_time_s": plant.x[ix::T],
             "plans_received": inbox.plans,
             "plans_rejected": inbox.rejected,
@@ -629,7 +704,47 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
             break;
         }
     }
-    Ok(tl.report(args, end_reason))
+    let mut report = tl.report(args, end_reason);
+    laps::finish_report(&mut report, &tl.log, outcome(&tl, end_reason), tl.start);
+    report["no_feasible_plan_braking"] = tl.no_feasible_plan.into();
+    if let Some(dir) = &args.trace_dir {
+        if let Err(e) = tl.log.write(dir) {
+            elog!("tracker: --trace-dir: {e}");
+        }
+    }
+    Ok(report)
+}
+
+/// How the drive ended, in one word (`outcome` of the report): a stop for want of a
+/// feasible plan before the end, else the obstacles' verdict, else whether the drive was
+/// completed.
+fn outcome(tl: &TrackerLoop, end_reason: &str) -> &'static str {
+    let reached = end_reason == "distance reached";
+    let log = tl.log.json();
+    if tl.no_feasible_plan && !reached {
+        let in_lane = log["lane_kept"].as_bool() == Some(true);
+        return if tl.car.plant.stopped && in_lane {
+            "stopped_in_lane_no_feasible_plan"
+        } else if tl.car.plant.stopped {
+            "stopped_off_lane_no_feasible_plan"
+        } else {
+            "braking_no_feasible_plan"
+        };
+    }
+    if !tl.sc.road.obstacles().is_empty() {
+        return match log["obstacles_cleared"].as_bool() {
+            Some(false) => "collided",
+            _ if reached => "cleared",
+            _ => "not_reached",
+        };
+    }
+    if reached {
+        "completed"
+    } else if tl.ever_stale {
+        "stopped_stale_plan"
+    } else {
+        "not_completed"
+    }
 }
 
 #[cfg(test)]

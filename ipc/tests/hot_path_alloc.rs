@@ -192,7 +192,13 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
     let mismatch = Mismatch::from_arg("default").unwrap();
     let (control_dt, substeps) = (0.001, 4);
     let p = sc.spec.vehicle;
-    let mut car = Car::new(&p, &mismatch, 15.0, control_dt, 3);
+    let mut car = Car::new(
+        &p,
+        &mismatch,
+        ipc::plant::Plant::cruise(p, 15.0).x,
+        control_dt,
+        3,
+    );
     let controller = Controller::new(&p, control_dt, 0.07).unwrap();
     let mut x = [0.0; NX];
     x[ix::V] = 15.0;
@@ -232,4 +238,82 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
         "the car drove: {:?}",
         car.plant.x
     );
+}
+
+/// Sampling a track's road window (profile lookups, varying bounds, the margin ramp from
+/// the car's position, the wrap at the lap's end) and the domain check of the start state
+/// allocate nothing.
+#[test]
+fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let road_args = ipc::road::RoadArgs {
+        track: Some("Austin".into()),
+        tracks_index: root.join("tracks/tracks.toml"),
+        ..Default::default()
+    };
+    let sc = Scenario::load_with(
+        &root.join("scenarios/oval.toml"),
+        &road_args,
+        &root.join("vehicles/lc500.toml"),
+        &root.join("solver.toml"),
+    )
+    .unwrap();
+    let lap = sc.road.lap();
+    let ds = sc.ds();
+    let mut window = RoadWindow::default();
+    let mut x0 = [0.0; NX];
+    x0[ix::V] = 20.0;
+    x0[ix::VWR] = 20.0;
+    let sample = |k: usize, window: &mut RoadWindow| {
+        let s = lap - 150.0 + k as f64 * 1.7;
+        sc.road.window_from(s, 0.3, ds, (0.5, 20.0), window);
+        sc.spec
+            .initial_domain(&window.kappa, &window.e_min, &window.e_max)
+            .check(&x0)
+            .unwrap();
+    };
+    sample(0, &mut window);
+    let info = allocation_counter::measure(|| {
+        for k in 0..200 {
+            sample(k, &mut window);
+        }
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+}
+
+/// The tracker's drive log (lap crossings, edge margin, obstacle clearance of the
+/// footprint, the driven trace and the plan log) allocates nothing per step up to its cap.
+#[test]
+fn logging_a_tracker_step_allocates_nothing() {
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let road_args = ipc::road::RoadArgs {
+        segment: Some("forgiving".into()),
+        ..Default::default()
+    };
+    let sc = Scenario::load_with(
+        &root.join("scenarios/collision_avoidance.toml"),
+        &road_args,
+        &root.join("vehicles/lc500.toml"),
+        &root.join("solver.toml"),
+    )
+    .unwrap();
+    let mut log = ipc::tracker_proc::RunLog::new(&sc.road, 0.0, 1, 10.0);
+    let plan = Trajectory {
+        ds: 1.25,
+        ..Trajectory::zeroed()
+    };
+    let mut x = [0.0; NX];
+    x[ix::V] = 25.0;
+    let info = allocation_counter::measure(|| {
+        for k in 0..20_000 {
+            x[ix::T] = k as f64 * 0.001;
+            x[ix::S] = 25.0 * x[ix::T];
+            log.step(&x, &sc.road);
+            if k % 100 == 0 {
+                log.plan(&plan, x[ix::S]);
+            }
+        }
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+    assert!(log.laps_done());
 }

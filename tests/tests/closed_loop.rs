@@ -131,7 +131,17 @@ fn closed_loop_recording_replays_bit_identically() {
     let file = std::env::temp_dir().join(format!("e2e-closed-loop-{}.mcap", std::process::id()));
     let _ = std::fs::remove_file(&file);
     let path = file.to_string_lossy().into_owned();
-    let v = run_closed_loop(30.0, &["--record", &path, ROOMY_BUDGET[0], ROOMY_BUDGET[1]]);
+    let v = run_closed_loop(
+        30.0,
+        &[
+            "--record",
+            &path,
+            ROOMY_BUDGET[0],
+            ROOMY_BUDGET[1],
+            "--initial-speed-mps",
+            "15",
+        ],
+    );
     let rec = &v["planner"]["recording"];
     let inputs = rec["inputs"].as_u64().unwrap_or(0);
     assert!(inputs >= 5, "{rec}");
@@ -180,4 +190,111 @@ fn closed_loop_with_a_tiny_budget_drives_on_the_previous_plan_shifted() {
     );
     assert_eq!(v["lane_kept"], serde_json::json!(true), "{v}");
     assert_eq!(v["tracker"]["stale"], serde_json::json!(false), "{v}");
+}
+
+/// A closed 400 m track of one's own made of a shipped track's last 200 m and first 200 m
+/// (`--track-profile`), driven one lap from a flying start: the drive crosses the shipped
+/// track's lap end at s = 200 m and the profile's own at s = 401 m, completes one timed lap
+/// and stays on the track.
+#[test]
+fn one_lap_of_a_track_across_the_lap_end_is_completed_in_the_lane() {
+    let _serial = serial();
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let text = std::fs::read_to_string(repo.join("config/tracks/Austin_profile.csv")).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    let n = rows.len();
+    let mut out = String::from("s_m,kappa_1pm,w_right_m,w_left_m\n");
+    for (i, row) in rows[n - 201..].iter().chain(&rows[..200]).enumerate() {
+        let rest = row.split_once(',').unwrap().1;
+        out.push_str(&format!("{i}.0,{rest}\n"));
+    }
+    let dir = std::env::temp_dir().join(format!("e2e-wrap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("austin_wrap_profile.csv");
+    std::fs::write(&profile, out).unwrap();
+    let figs = dir.join("out");
+    let v = run_closed_loop(
+        0.0,
+        &[
+            "--track-profile",
+            &profile.to_string_lossy(),
+            "--lap-length-m",
+            "401",
+            "--out-dir",
+            &figs.to_string_lossy(),
+        ],
+    );
+    let png = figs.join("austin_wrap_lap.png").is_file();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(v["outcome"], "completed", "{v}");
+    assert_eq!(v["laps_completed"], 1, "{v}");
+    let laps = v["lap_times_s"].as_array().expect("lap times");
+    assert_eq!(laps.len(), 1, "{v}");
+    // 401 m at no less than 15 m/s and no more than the 70 m/s bound.
+    let t = laps[0].as_f64().unwrap();
+    assert!(t > 401.0 / 70.0 && t < 401.0 / 15.0, "{v}");
+    // The CG stays on the track: within 0.5 m of the lane edge at worst. The planner keeps
+    // a 0.5 m margin; a debug build's solves can overrun the period on a loaded machine, so
+    // the test allows that margin to be used up, not the track to be left.
+    let margin = v["min_edge_margin_m"].as_f64().unwrap();
+    assert!(margin > -0.5, "{v}");
+    assert_eq!(v["start_state"], "free_start_solve", "{v}");
+    assert_eq!(v["mismatch"], "none", "{v}");
+    assert!(png, "the lap figure is written");
+}
+
+/// The forgiving emergency swerve driven from 25 m/s: the planner replans around the two
+/// obstacles fixed on the road and the car's footprint clears both.
+#[test]
+fn the_forgiving_swerve_driven_clears_both_obstacles() {
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("e2e-swerve-{}", std::process::id()));
+    let v = run_closed_loop(
+        0.0,
+        &[
+            "--scenario",
+            "config/scenarios/collision_avoidance.toml",
+            "--segment",
+            "forgiving",
+            "--tire-saturation",
+            "on",
+            "--out-dir",
+            &dir.to_string_lossy(),
+        ],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(v["start_state"], "scenario", "{v}");
+    assert_eq!(v["obstacles_cleared"], true, "{v}");
+    assert!(v["min_obstacle_clearance_m"].as_f64().unwrap() > 0.0, "{v}");
+    assert_eq!(v["outcome"], "cleared", "{v}");
+}
+
+/// A profile with a NaN is refused before any process starts, naming the file and line.
+#[test]
+fn a_bad_track_profile_is_refused_with_its_row() {
+    let dir = std::env::temp_dir().join(format!("e2e-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("bad_profile.csv");
+    std::fs::write(
+        &profile,
+        "s_m,kappa_1pm,w_right_m,w_left_m\n0.0,0.0,4.0,4.0\n1.0,NaN,4.0,4.0\n2.0,0.0,4.0,4.0\n",
+    )
+    .unwrap();
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = Command::new(bin_dir().join("trajopt"))
+        .current_dir(&repo)
+        .args(["closed-loop", "--json", "--track-profile"])
+        .arg(&profile)
+        .args(["--lap-length-m", "3"])
+        .output()
+        .expect("run trajopt closed-loop");
+    let _ = std::fs::remove_dir_all(&dir);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(out.stdout.is_empty(), "nothing on stdout");
+    assert!(stderr.contains("bad_profile.csv:3:"), "{stderr}");
+    assert!(
+        !stderr.contains("planner: up"),
+        "no process started: {stderr}"
+    );
 }

@@ -28,14 +28,14 @@ impl Car {
     pub fn new(
         params: &VehicleParams,
         mismatch: &Mismatch,
-        v0: f64,
+        x0: [f64; NX],
         control_dt: f64,
         seed: u64,
     ) -> Self {
         let act = &mismatch.actuator;
         let delay_steps = (act.transport_delay_s / control_dt).round().max(0.0) as usize;
         Self {
-            plant: Plant::cruise(mismatch.apply(params), v0),
+            plant: Plant::new(mismatch.apply(params), x0),
             actuator: Actuator::new(delay_steps, act.steering_lag_s),
             noise: StateNoise::new(mismatch.noise.sigma(), seed),
         }

@@ -1,6 +1,12 @@
 //! `trajopt closed-loop`: starts `planner_proc` and `tracker_proc` (ipc crate) on one
 //! iceoryx2 service prefix, waits for the tracker to finish the drive, stops the planner by
-//! closing its stdin, and summarises both processes' final JSON lines.
+//! closing its stdin, and summarises both processes' final JSON lines, with the laps, the
+//! figures and the reference lap time ([`summary`]).
+
+mod figures;
+mod road;
+mod summary;
+mod trace;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -12,7 +18,7 @@ use crate::paths::resolve;
 #[allow(rustdoc::broken_intra_doc_links)] // clap prints these docs as --help: unit brackets stay unescaped
 #[derive(clap::Args, Debug)]
 pub struct ClosedLoopArgs {
-    /// Scenario file (a closed road such as the oval).
+    /// Scenario file (a closed road such as the oval, or an obstacle file with --segment).
     #[arg(long, default_value = "config/scenarios/oval.toml")]
     scenario: PathBuf,
     /// Vehicle file.
@@ -21,12 +27,12 @@ pub struct ClosedLoopArgs {
     /// Solver settings file.
     #[arg(long, default_value = "config/solver.toml")]
     solver: PathBuf,
-    /// Distance to drive [m] (0: one lap).
+    /// Distance to drive [m] (0: --laps laps).
     #[arg(long, default_value_t = 0.0)]
     distance_m: f64,
-    /// Simulated-time cap [s].
-    #[arg(long, default_value_t = 60.0)]
-    duration_s: f64,
+    /// Simulated-time cap [s] (default: 60 s plus 1 s per 15 m of the laps).
+    #[arg(long)]
+    duration_s: Option<f64>,
     /// Replanning rate [Hz].
     #[arg(long, default_value_t = 10.0)]
     rate_hz: f64,
@@ -55,6 +61,22 @@ pub struct ClosedLoopArgs {
     /// of the period).
     #[arg(long)]
     budget_ms: Option<f64>,
+    #[command(flatten)]
+    road: road::RoadOpts,
+}
+
+impl ClosedLoopArgs {
+    /// The simulated-time cap: as given, else 60 s plus 1 s per 15 m of the drive.
+    fn duration(&self, lap_m: f64) -> f64 {
+        self.duration_s.unwrap_or_else(|| {
+            let drive = if self.distance_m > 0.0 {
+                self.distance_m
+            } else {
+                self.road.laps as f64 * lap_m
+            };
+            60.0 + drive / 15.0
+        })
+    }
 }
 
 /// Kills a child on drop unless it was waited for (no orphans on error paths).
@@ -136,6 +158,7 @@ fn spawn_pair(
     args: &ClosedLoopArgs,
     (planner_exe, tracker_exe): &(PathBuf, PathBuf),
     prefix: &str,
+    (duration_s, trace_dir): (f64, &Path),
 ) -> Result<(ChildGuard, ChildGuard), String> {
     let files = |c: &mut Command| {
         c.arg("--scenario")
@@ -150,6 +173,7 @@ fn spawn_pair(
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit());
+        args.road.pass(c);
     };
     let mut pc = Command::new(planner_exe);
     files(&mut pc);
@@ -167,9 +191,19 @@ fn spawn_pair(
     let mut tc = Command::new(tracker_exe);
     files(&mut tc);
     tc.arg("--duration-s")
-        .arg(args.duration_s.to_string())
+        .arg(duration_s.to_string())
         .arg("--distance-m")
-        .arg(args.distance_m.to_string());
+        .arg(args.distance_m.to_string())
+        .arg("--laps")
+        .arg(args.road.laps.to_string())
+        .arg("--start-s")
+        .arg(args.road.start_s.to_string())
+        .arg("--trace-dir")
+        .arg(trace_dir);
+    match args.road.initial_speed_mps {
+        Some(v) => tc.arg("--v0").arg(v.to_string()),
+        None => tc.arg("--free-start"),
+    };
     // The plant's settings go to the tracker only: the planner never sees them.
     tc.arg("--mismatch")
         .arg(mismatch_arg(&args.mismatch))
@@ -195,7 +229,10 @@ fn mismatch_arg(m: &str) -> std::ffi::OsString {
 
 /// Runs the closed loop and prints its summary (one JSON object with `--json`).
 pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
-    if !(args.duration_s > 0.0 && args.duration_s <= 3600.0 && args.distance_m >= 0.0) {
+    // The road is read here first, so a bad file is refused before anything starts.
+    let map = road::road_map(&args.road, &args.scenario, &args.vehicle)?;
+    let duration_s = args.duration(map.length);
+    if !(duration_s > 0.0 && duration_s <= 3600.0 && args.distance_m >= 0.0) {
         return Err("need 0 < --duration-s <= 3600 and --distance-m >= 0".into());
     }
     let exes = executables(&args)?;
@@ -205,9 +242,11 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
             .map_or(0, |d| d.subsec_nanos());
         format!("trajopt-{}-{nanos}", std::process::id())
     });
-    let (mut planner, mut tracker) = spawn_pair(&args, &exes, &prefix)?;
+    let trace_dir = std::env::temp_dir().join(format!("{prefix}-trace"));
+    let _cleanup = summary::RemoveOnDrop(trace_dir.clone());
+    let (mut planner, mut tracker) = spawn_pair(&args, &exes, &prefix, (duration_s, &trace_dir))?;
     // Simulated time runs at wall-clock speed; the first plan may take a while on a loaded machine.
-    let limit = Duration::from_secs_f64(args.duration_s + 180.0);
+    let limit = Duration::from_secs_f64(duration_s + 180.0);
     planner::progress::begin(0, "closed loop: driving");
     let waited = wait_child(&mut tracker, limit);
     planner::progress::end();
@@ -225,8 +264,9 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
     if !planner_ok || p.is_null() {
         return Err("planner_proc failed (see its log above)".into());
     }
-    let obj = summary_json(&args, &prefix, t, p);
-    let summary = summary_text(&obj);
+    let mut obj = summary_json(&args, &prefix, t, p);
+    summary::extend(&args, &map, &trace_dir, &mut obj);
+    let summary = format!("{}\n{}", summary_text(&obj), summary::text(&obj));
     if args.json {
         errln!("{summary}");
         outln!("{obj}");

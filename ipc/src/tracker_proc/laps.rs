@@ -1,0 +1,255 @@
+//! What a drive shows, logged at every control step without allocating: lap times (the
+//! car's unwrapped s crossing start_s + k lap), the CG's margin to the nearer lane edge,
+//! the peak sideslip, the footprint's clearance of the obstacles, and the driven trace
+//! and plan log for the figures (preallocated for the run's cap, written once at the end).
+
+use std::path::Path;
+
+use planner::model::{ix, NX};
+
+use crate::msg::{Trajectory, HORIZON_N};
+use crate::road::footprint::{
+    clearance, footprint, obstacle_boxes, Quad, CAR_LENGTH_M, CAR_WIDTH_M,
+};
+use crate::road::ClosedRoad;
+
+/// Period of the driven trace [s].
+pub const TRACE_DT_S: f64 = 0.01;
+/// Plans logged per second of the run's cap (twice the default 10 Hz, room for 20 Hz).
+const PLANS_PER_S: f64 = 20.0;
+
+/// One row of the driven trace: t, s, e, V, beta, dpsi.
+pub type TraceRow = [f64; 6];
+
+/// One logged plan: where the car was, the plan's origin and grid, its status and solve
+/// time, and its node speeds.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanRow {
+    /// Car's s when the plan arrived \[m\].
+    pub s_car: f64,
+    /// Plan origin s \[m\].
+    pub s_origin: f64,
+    /// Grid \[m\].
+    pub ds: f64,
+    /// Status code ([`crate::msg::status_code`]).
+    pub status: u32,
+    /// Solve time \[s\].
+    pub solve_time_s: f64,
+    /// Node speeds [m/s].
+    pub v: [f64; HORIZON_N + 1],
+}
+
+/// The drive's log; every field is updated in place.
+#[derive(Debug)]
+pub struct RunLog {
+    start_s: f64,
+    lap: f64,
+    closed: bool,
+    laps_wanted: usize,
+    lap_end_t: Vec<f64>,
+    min_edge_margin: f64,
+    max_beta: f64,
+    obstacles: Vec<Quad>,
+    min_clearance: f64,
+    trace: Vec<TraceRow>,
+    next_trace_t: f64,
+    plans: Vec<PlanRow>,
+}
+
+impl RunLog {
+    /// A log for a drive from `start_s` of up to `laps` laps and `duration_s` simulated
+    /// seconds on `road` (allocates the trace, plan log and obstacle boxes once).
+    pub fn new(road: &ClosedRoad, start_s: f64, laps: usize, duration_s: f64) -> Self {
+        let mut obstacles = Vec::new();
+        for o in road.obstacles() {
+            let (lo, hi) = road.edges(0.5 * (o.s_from + o.s_to));
+            obstacles.extend(obstacle_boxes(o, lo, hi).into_iter().flatten());
+        }
+        let rows = (duration_s / TRACE_DT_S).ceil() as usize + 2;
+        let plans = (duration_s * PLANS_PER_S).ceil() as usize + 2;
+        Self {
+            start_s,
+            lap: road.lap(),
+            closed: road.is_closed(),
+            laps_wanted: laps,
+            lap_end_t: Vec::with_capacity(laps + 1),
+            min_edge_margin: f64::INFINITY,
+            max_beta: 0.0,
+            min_clearance: if obstacles.is_empty() {
+                f64::NAN
+            } else {
+                f64::INFINITY
+            },
+            obstacles,
+            trace: Vec::with_capacity(rows),
+            next_trace_t: 0.0,
+            plans: Vec::with_capacity(plans),
+        }
+    }
+
+    /// Logs the plant state after one control step. Allocates nothing.
+    pub fn step(&mut self, x: &[f64; NX], road: &ClosedRoad) {
+        let s = x[ix::S];
+        let (lo, hi) = road.edges(s);
+        let e = x[ix::E];
+        self.min_edge_margin = self.min_edge_margin.min((e - lo).min(hi - e));
+        self.max_beta = self.max_beta.max(x[ix::BETA].abs());
+        let done = self.lap_end_t.len();
+        if done < self.lap_end_t.capacity() && s >= self.start_s + (done + 1) as f64 * self.lap {
+            self.lap_end_t.push(x[ix::T]);
+        }
+        if !self.obstacles.is_empty() {
+            let car = footprint(s, e, x[ix::DPSI] - x[ix::BETA], CAR_LENGTH_M, CAR_WIDTH_M);
+            for b in &self.obstacles {
+                self.min_clearance = self.min_clearance.min(clearance(&car, b));
+            }
+        }
+        if x[ix::T] + 1e-9 >= self.next_trace_t && self.trace.len() < self.trace.capacity() {
+            self.trace
+                .push([x[ix::T], s, e, x[ix::V], x[ix::BETA], x[ix::DPSI]]);
+            self.next_trace_t += TRACE_DT_S;
+        }
+    }
+
+    /// Logs a plan the tracker took, arriving with the car at `s_car`. Allocates nothing.
+    pub fn plan(&mut self, m: &Trajectory, s_car: f64) {
+        if self.plans.len() < self.plans.capacity() {
+            let mut v = [0.0; HORIZON_N + 1];
+            for k in 0..=HORIZON_N {
+                v[k] = m.x[k][ix::V];
+            }
+            self.plans.push(PlanRow {
+                s_car,
+                s_origin: m.s_origin,
+                ds: m.ds,
+                status: m.status,
+                solve_time_s: m.solve_time_s,
+                v,
+            });
+        }
+    }
+
+    /// Lap times \[s\] of the laps completed (the first from t = 0).
+    pub fn lap_times(&self) -> Vec<f64> {
+        let mut prev = 0.0;
+        self.lap_end_t
+            .iter()
+            .map(|&t| {
+                let d = t - prev;
+                prev = t;
+                d
+            })
+            .collect()
+    }
+
+    /// True once the wanted laps are driven.
+    pub fn laps_done(&self) -> bool {
+        self.lap_end_t.len() >= self.laps_wanted
+    }
+
+    /// The log's figures as JSON fields (merged into the tracker's report).
+    pub fn json(&self) -> serde_json::Value {
+        let finite = |v: f64| {
+            if v.is_finite() {
+                serde_json::json!(v)
+            } else {
+                serde_json::Value::Null
+            }
+        };
+        let cleared = if self.obstacles.is_empty() {
+            serde_json::Value::Null
+        } else {
+            serde_json::json!(self.min_clearance > 0.0)
+        };
+        serde_json::json!({
+            "start_s_m": self.start_s,
+            "lap_length_m": self.lap,
+            "closed_road": self.closed,
+            "lap_times_s": self.lap_times(),
+            "laps_completed": self.lap_end_t.len(),
+            "min_edge_margin_m": finite(self.min_edge_margin),
+            "lane_kept": self.min_edge_margin >= 0.0,
+            "max_sideslip_rad": self.max_beta,
+            "obstacles_cleared": cleared,
+            "min_obstacle_clearance_m": finite(self.min_clearance),
+            "footprint_length_m": CAR_LENGTH_M,
+            "footprint_width_m": CAR_WIDTH_M,
+            "trace_rows": self.trace.len(),
+            "plans_logged": self.plans.len(),
+        })
+    }
+
+    /// Writes `driven.csv` (t, s, e, V, beta, dpsi every 10 ms) and `plans.csv` (one row
+    /// per plan taken: car s, origin, grid, status, solve time, node speeds) into `dir`,
+    /// each file whole or not at all.
+    pub fn write(&self, dir: &Path) -> Result<(), String> {
+        use std::io::Write;
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        planner::io::write_atomic(&dir.join("driven.csv"), |w| {
+            writeln!(w, "t_s,s_m,e_m,v_mps,beta_rad,dpsi_rad")?;
+            for r in &self.trace {
+                writeln!(w, "{},{},{},{},{},{}", r[0], r[1], r[2], r[3], r[4], r[5])?;
+            }
+            Ok(())
+        })
+        .map_err(|e| e.to_string())?;
+        planner::io::write_atomic(&dir.join("plans.csv"), |w| {
+            write!(w, "s_car_m,s_origin_m,ds_m,status,solve_time_s")?;
+            for k in 0..=HORIZON_N {
+                write!(w, ",v{k}")?;
+            }
+            writeln!(w)?;
+            for p in &self.plans {
+                write!(
+                    w,
+                    "{},{},{},{},{}",
+                    p.s_car, p.s_origin, p.ds, p.status, p.solve_time_s
+                )?;
+                for v in &p.v {
+                    write!(w, ",{v}")?;
+                }
+                writeln!(w)?;
+            }
+            Ok(())
+        })
+        .map_err(|e| e.to_string())
+    }
+}
+
+/// Adds the log's figures, the outcome and the start state's origin to the tracker's report
+/// (the log's `lane_kept` replaces the report's).
+pub fn finish_report(report: &mut serde_json::Value, log: &RunLog, outcome: &str, start: &str) {
+    if let (Some(obj), serde_json::Value::Object(extra)) = (report.as_object_mut(), log.json()) {
+        obj.extend(extra);
+        obj.insert("outcome".into(), outcome.into());
+        obj.insert("start_state".into(), start.into());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn laps_are_timed_where_the_unwrapped_s_passes_the_start_plus_whole_laps() {
+        let road = ClosedRoad::new(vec![(0.0, 0.0)], 100.0, -4.0, 4.0);
+        let mut log = RunLog::new(&road, 90.0, 2, 60.0);
+        let mut x = [0.0; NX];
+        x[ix::V] = 10.0;
+        // 10 m/s from s = 90: laps end at s = 190 (t = 10) and 290 (t = 20).
+        for i in 0..=2500 {
+            x[ix::T] = i as f64 * 0.01;
+            x[ix::S] = 90.0 + 10.0 * x[ix::T];
+            x[ix::E] = 3.0;
+            log.step(&x, &road);
+        }
+        let laps = log.lap_times();
+        assert_eq!(laps.len(), 2);
+        assert!(
+            (laps[0] - 10.0).abs() < 0.011 && (laps[1] - 10.0).abs() < 0.011,
+            "{laps:?}"
+        );
+        assert!(log.laps_done());
+        assert!((log.json()["min_edge_margin_m"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    }
+}

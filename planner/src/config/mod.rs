@@ -14,7 +14,9 @@ mod tracks;
 mod vehicle;
 
 pub use error::ConfigError;
-pub use scenario::{data_root_of, list_selections, load_scenario, load_scenario_for_horizon};
+pub use scenario::{
+    data_root_of, list_selections, load_scenario, load_scenario_for_horizon, load_stretch, Stretch,
+};
 pub use solver::{load_solver, shipped_solver_file, SOLVER_FILE, SOLVER_FILE_MIN_TIME};
 pub use tracks::{load_track_index, Direction, TrackInfo};
 pub use vehicle::load_vehicle;

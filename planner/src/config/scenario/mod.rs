@@ -11,6 +11,7 @@ mod schema;
 mod segments;
 mod select;
 mod single;
+mod stretch;
 
 use super::fields::{parse_toml, read_text, Fields};
 use super::ConfigError;
@@ -19,6 +20,7 @@ use crate::ocp::OcpSpec;
 use schema::{ObstacleFile, SegmentsFile};
 use select::names;
 use std::path::{Path, PathBuf};
+pub use stretch::{load_stretch, Stretch};
 
 /// The data root of a scenario file: the parent of the folder holding it
 /// (`config/scenarios/oval.toml` → `config`). Paths inside scenario files resolve against it.

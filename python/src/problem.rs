@@ -253,7 +253,11 @@ impl Problem {
             self.spec.name,
             self.spec.n_intervals,
             self.spec.length,
-            self.spec.enforce_tire_saturation,
+            if self.spec.enforce_tire_saturation {
+                "True"
+            } else {
+                "False"
+            },
             self.spec.steering_slew_weight
         )
     }

@@ -65,7 +65,7 @@ def test_columns_are_the_command_lines_csv_table(oval_solution):
     cols = oval_solution.columns()
     assert list(cols) == [
         "k", "s_grid", "kappa", "r", "V", "beta", "V_wr", "dFz", "e", "dpsi", "s", "t",
-        "delta", "T_comb", "T_bf", "e_min", "e_max",
+        "delta", "T_comb", "T_bf", "e_min", "e_max", "s_track", "x", "y", "heading",
     ]
     assert all(len(v) == trajopt.HORIZON + 1 for v in cols.values())
     # Node N repeats the last control, as the CSV does.

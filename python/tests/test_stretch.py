@@ -28,11 +28,11 @@ def test_the_edge_margin_widens_the_lane_by_the_margin_given_up():
 
 
 def test_an_unknown_track_names_the_tracks_of_the_index():
-    with pytest.raises(trajopt.TrajoptError, match="stretch.track") as e:
+    with pytest.raises(trajopt.TrajoptError, match="no such track") as e:
         trajopt.track_stretch("Monza", 0.0)
     assert "Austin" in str(e.value) and "tracks.toml" in str(e.value)
 
 
-def test_a_start_beyond_the_lap_is_refused_by_field():
-    with pytest.raises(trajopt.TrajoptError, match=r"stretch\.start_s = 9000"):
-        trajopt.track_stretch("Austin", 9000.0)
+def test_a_start_that_is_not_a_number_is_refused_by_field():
+    with pytest.raises(trajopt.TrajoptError, match="start_s"):
+        trajopt.track_stretch("Austin", float("nan"))

@@ -200,10 +200,18 @@ fn spawn_pair(
         .arg(args.road.start_s.to_string())
         .arg("--trace-dir")
         .arg(trace_dir);
+    // A flying start (free-start solve) on a track; a scenario road starts from its own
+    // fixed initial state, else at the tracker's cruise speed.
+    let on_track = args.road.track.is_some() || args.road.track_profile.is_some();
     match args.road.initial_speed_mps {
-        Some(v) => tc.arg("--v0").arg(v.to_string()),
-        None => tc.arg("--free-start"),
-    };
+        Some(v) => {
+            tc.arg("--v0").arg(v.to_string());
+        }
+        None if on_track => {
+            tc.arg("--free-start");
+        }
+        None => {}
+    }
     // The plant's settings go to the tracker only: the planner never sees them.
     tc.arg("--mismatch")
         .arg(mismatch_arg(&args.mismatch))

@@ -28,8 +28,9 @@ pub struct RoadOpts {
     /// Road s where the car starts [m].
     #[arg(long, default_value_t = 0.0)]
     pub start_s: f64,
-    /// Start speed [m/s], straight-line cruise in the lane centre (default: node 0 of a
-    /// free-start solve at --start-s, or the scenario's fixed initial state).
+    /// Start speed [m/s], straight-line cruise in the lane centre (default on a track:
+    /// node 0 of a free-start solve at --start-s; on a scenario road: its fixed initial
+    /// state, else 15 m/s).
     #[arg(long)]
     pub initial_speed_mps: Option<f64>,
     /// Lane margin the plans keep from each edge and obstacle [m] (default 0.5; 0.2 for an

@@ -9,11 +9,15 @@
 //! and u_ref the plan's control a preview time t_p ahead: a command takes the actuator
 //! latency (transport delay plus steering lag) to reach the tires, by when the car has
 //! driven V t_p further. The heading error is wrapped into (-pi, pi]. The feedback acts on
-//! steering and rear torque; the front brake takes the plan's value. Allocates nothing.
+//! steering and rear torque; the front brake takes the plan's value. The gain is designed
+//! on the error augmented by the steering actuator's error delta_est - delta_ref(s), where
+//! delta_est is the actuator's steering as the tracker's model of its own actuator gives it
+//! (the commands sent, delayed by the transport delay and filtered by the first-order lag;
+//! [`Controller::applied`]). Allocates nothing.
 
-use planner::model::{ix, VehicleParams, NU, NX};
+use planner::model::{iu, ix, VehicleParams, NU, NX};
 
-use crate::lqr::{GainSchedule, Weights, NV, NZ, V_INPUTS, Z_STATES};
+use crate::lqr::{GainSchedule, Weights, NA, NV, NZ, V_INPUTS, Z_STATES};
 use crate::msg::Trajectory;
 use crate::tracker::{reference, Reference};
 
@@ -33,16 +37,67 @@ fn wrap(a: f64) -> f64 {
 pub struct Controller {
     sched: GainSchedule,
     preview_s: f64,
+    /// Steering commands on their way through the transport delay (ring buffer).
+    delayed: Vec<f64>,
+    next: usize,
+    /// Steering at the road wheels by the actuator model \[rad\].
+    delta_est: f64,
+    /// Fraction of the gap the first-order lag closes in one control period.
+    lag_step: f64,
+    /// False until the first command (which, as in the plant, fills the delay line and the
+    /// steering state: the car was driving with it).
+    primed: bool,
+}
+
+/// The tracker's model of its own steering actuator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Actuator {
+    /// First-order steering lag \[s\] (0: none).
+    pub steering_lag_s: f64,
+    /// Transport delay in whole control periods.
+    pub delay_steps: usize,
 }
 
 impl Controller {
     /// A controller for the model `p` (the planner's vehicle) at control period
-    /// `control_dt` \[s\], with feed-forward preview `preview_s` \[s\].
-    pub fn new(p: &VehicleParams, control_dt: f64, preview_s: f64) -> Result<Self, String> {
+    /// `control_dt` \[s\], with feed-forward preview `preview_s` \[s\] and the steering
+    /// `actuator` it commands (allocates the delay line once).
+    pub fn new(
+        p: &VehicleParams,
+        control_dt: f64,
+        preview_s: f64,
+        actuator: Actuator,
+    ) -> Result<Self, String> {
+        let tau = actuator.steering_lag_s.max(0.0);
         Ok(Self {
-            sched: GainSchedule::design(p, &Weights::default(), control_dt)?,
+            sched: GainSchedule::design(p, &Weights::default(), control_dt, tau)?,
             preview_s: preview_s.max(0.0),
+            delayed: vec![0.0; actuator.delay_steps + 1],
+            next: 0,
+            delta_est: 0.0,
+            lag_step: if tau > 0.0 {
+                1.0 - (-control_dt / tau).exp()
+            } else {
+                1.0
+            },
+            primed: false,
         })
+    }
+
+    /// Records the steering command sent this control period (whatever produced it) and
+    /// advances the actuator model by one period. Allocates nothing.
+    pub fn applied(&mut self, delta_cmd: f64) {
+        if !self.primed {
+            self.primed = true;
+            self.delayed.fill(delta_cmd);
+            self.delta_est = delta_cmd;
+        }
+        let n = self.delayed.len();
+        self.delayed[self.next] = delta_cmd;
+        self.next = (self.next + 1) % n;
+        // The oldest entry is the command that leaves the transport delay now.
+        let arriving = self.delayed[self.next % n];
+        self.delta_est += self.lag_step * (arriving - self.delta_est);
     }
 
     /// Feed-forward preview time \[s\].
@@ -57,10 +112,11 @@ impl Controller {
         let r = reference(plan, s_local)?;
         let ahead = (s_local + y[ix::V].max(0.0) * self.preview_s).min(plan.length());
         let ff = reference(plan, ahead).map_or(r.u, |a| a.u);
-        let mut z = [0.0; NZ];
+        let mut z = [0.0; NA];
         for (j, &i) in Z_STATES.iter().enumerate() {
             z[j] = y[i] - r.x[i];
         }
+        z[NZ] = self.delta_est - r.u[iu::DELTA];
         let dpsi = Z_STATES
             .iter()
             .position(|&i| i == ix::DPSI)
@@ -70,7 +126,7 @@ impl Controller {
         let mut u = ff;
         for m in 0..NV {
             let mut v = 0.0;
-            for j in 0..NZ {
+            for j in 0..NA {
                 v += k[(m, j)] * z[j];
             }
             u[V_INPUTS[m]] -= v;
@@ -119,12 +175,17 @@ mod tests {
             5,
         );
         car.plant.x[ix::E] = 0.5;
-        let ctl = Controller::new(&p, control_dt, 0.07).unwrap();
+        let actuator = Actuator {
+            steering_lag_s: mismatch.actuator.steering_lag_s,
+            delay_steps: car.delay_steps(),
+        };
+        let mut ctl = Controller::new(&p, control_dt, 0.07, actuator).unwrap();
         let plan = straight_plan(v);
         let (mut lowest, mut last_second_max) = (f64::INFINITY, 0.0f64);
         for k in 0..3000 {
             let y = car.measure();
             let (u, _) = ctl.control(&plan, &y).expect("covered");
+            ctl.applied(u[iu::DELTA]);
             car.drive(u, &road, substeps, control_dt / substeps as f64);
             let e = car.plant.x[ix::E];
             lowest = lowest.min(e);

@@ -12,6 +12,18 @@
 //! doubling algorithm, which converges quadratically also when the slow modes sit close to
 //! the unit circle (T_c = 1 ms). The gain K = (R + B'PB)^-1 B'PA gives v = -K z.
 //!
+//! The steering reaches the road wheels through a first-order actuator of time constant
+//! tau (`actuator.steering_lag_s` of the mismatch, which the tracker knows as it knows its
+//! own hardware): delta_dot = (delta_cmd - delta) / tau. The design therefore runs on the
+//! error state augmented by the actuator's steering error, z_a = [z, delta - delta_ref],
+//!
+//!   z_a_dot = [[A, b_delta], [0, -1/tau]] z_a + [[0, b_T], [1/tau, 0]] v,
+//!
+//! so the gain knows that a steering command acts only after the lag (a design on z alone
+//! asks for corrections the actuator delivers 50 ms late, which at speed destabilises the
+//! yaw mode it is meant to damp). With tau at or below the control period the actuator is
+//! as fast as the loop and the augmented state is the commanded steering itself.
+//!
 //! The gains are designed once at start-up on a grid of speeds and interpolated linearly in
 //! V in the control step ([`GainSchedule::gain`]), which allocates nothing.
 
@@ -21,6 +33,8 @@ use planner::model::{iu, ix, time_derivatives, VehicleParams, NU, NX};
 
 /// Number of error states [r, V, beta, V_wr, e, dpsi].
 pub const NZ: usize = 6;
+/// Number of design states: the error states and the actuator's steering error.
+pub const NA: usize = NZ + 1;
 /// Number of feedback inputs [delta, T_comb].
 pub const NV: usize = 2;
 /// State index (in x) of each error state.
@@ -30,15 +44,17 @@ pub const V_INPUTS: [usize; NV] = [iu::DELTA, iu::TCOMB];
 
 type MatZ = SMatrix<f64, NZ, NZ>;
 type MatB = SMatrix<f64, NZ, NV>;
-/// Feedback gain K (v = -K z).
-pub type Gain = SMatrix<f64, NV, NZ>;
+type MatA = SMatrix<f64, NA, NA>;
+type MatBa = SMatrix<f64, NA, NV>;
+/// Feedback gain K (v = -K z_a) on the augmented error z_a = [z, delta - delta_ref].
+pub type Gain = SMatrix<f64, NV, NA>;
 
 /// Diagonal LQR weights, as the largest acceptable error or correction (Bryson's rule:
 /// weight 1 / max^2).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Weights {
-    /// Largest acceptable error per state [r, V, beta, V_wr, e, dpsi] (SI units).
-    pub z_max: [f64; NZ],
+    /// Largest acceptable error per state [r, V, beta, V_wr, e, dpsi, steering] (SI units).
+    pub z_max: [f64; NA],
     /// Largest acceptable correction per input [delta \[rad\], T_comb \[N m\]].
     pub v_max: [f64; NV],
 }
@@ -47,10 +63,11 @@ impl Default for Weights {
     /// Position and heading first (0.05 m, 0.02 rad), speed loosely (0.5 m/s), yaw rate
     /// and sideslip very loosely (the plan's values come from the nominal model, which a
     /// mismatched car cannot match in a steady curve), the wheel speed tightly (the rear
-    /// wheel mode is fast and unstable past the tire peak).
+    /// wheel mode is fast and unstable past the tire peak), the actuator's steering as
+    /// loosely as the steering correction (0.02 rad).
     fn default() -> Self {
         Self {
-            z_max: [1.0, 0.5, 0.5, 0.2, 0.05, 0.02],
+            z_max: [1.0, 0.5, 0.5, 0.2, 0.05, 0.02, 0.02],
             v_max: [0.02, 600.0],
         }
     }
@@ -89,11 +106,11 @@ pub fn linearise(p: &VehicleParams, v: f64) -> (MatZ, MatB) {
 }
 
 /// Zero-order-hold discretisation over `ts` \[s\]: (exp(A ts), int_0^ts exp(A t) dt B).
-pub fn discretise(a: &MatZ, b: &MatB, ts: f64) -> (MatZ, MatB) {
-    const N: usize = NZ + NV;
+pub fn discretise(a: &MatA, b: &MatBa, ts: f64) -> (MatA, MatBa) {
+    const N: usize = NA + NV;
     let mut m = SMatrix::<f64, N, N>::zeros();
-    m.fixed_view_mut::<NZ, NZ>(0, 0).copy_from(&(a * ts));
-    m.fixed_view_mut::<NZ, NV>(0, NZ).copy_from(&(b * ts));
+    m.fixed_view_mut::<NA, NA>(0, 0).copy_from(&(a * ts));
+    m.fixed_view_mut::<NA, NV>(0, NA).copy_from(&(b * ts));
     // Scale so the norm is below 1/2, sum the Taylor series, square back.
     let norm = m.abs().sum();
     let mut squarings = 0;
@@ -113,15 +130,30 @@ pub fn discretise(a: &MatZ, b: &MatB, ts: f64) -> (MatZ, MatB) {
         e = e * e;
     }
     (
-        e.fixed_view::<NZ, NZ>(0, 0).into_owned(),
-        e.fixed_view::<NZ, NV>(0, NZ).into_owned(),
+        e.fixed_view::<NA, NA>(0, 0).into_owned(),
+        e.fixed_view::<NA, NV>(0, NA).into_owned(),
     )
+}
+
+/// The error dynamics (A, B) augmented by the steering actuator of time constant `tau`
+/// \[s\] (module documentation).
+pub fn augment(a: &MatZ, b: &MatB, tau: f64) -> (MatA, MatBa) {
+    let mut aa = MatA::zeros();
+    let mut ba = MatBa::zeros();
+    aa.fixed_view_mut::<NZ, NZ>(0, 0).copy_from(a);
+    aa.fixed_view_mut::<NZ, 1>(0, NZ).copy_from(&b.column(0));
+    aa[(NZ, NZ)] = -1.0 / tau;
+    ba.fixed_view_mut::<NZ, 1>(0, 1).copy_from(&b.column(1));
+    ba[(NZ, 0)] = 1.0 / tau;
+    (aa, ba)
 }
 
 /// The stabilising solution's gain K of the discrete LQR (A, B, diag q, diag r) by the
 /// structure-preserving doubling algorithm (at most 100 doublings); `None` when it does
 /// not converge or a matrix is singular.
-pub fn dlqr(a: &MatZ, b: &MatB, q: &[f64; NZ], r: &[f64; NV]) -> Option<Gain> {
+pub fn dlqr(a: &MatA, b: &MatBa, q: &[f64; NA], r: &[f64; NV]) -> Option<Gain> {
+    type MatZ = MatA;
+    const NZ: usize = NA;
     let q = MatZ::from_diagonal(&SVector::<f64, NZ>::from(*q));
     let r = SMatrix::<f64, NV, NV>::from_diagonal(&SVector::<f64, NV>::from(*r));
     let r_inv = r.try_inverse()?;
@@ -162,8 +194,10 @@ pub const SCHEDULE_SPEEDS: (f64, f64) = (3.0, 90.0);
 impl GainSchedule {
     /// Designs the gains for the model `p`, control period `ts` \[s\] and `weights` on a
     /// 1 m/s grid over [`SCHEDULE_SPEEDS`]. Errors name the speed where the design fails.
-    pub fn design(p: &VehicleParams, weights: &Weights, ts: f64) -> Result<Self, String> {
-        let q: [f64; NZ] = std::array::from_fn(|i| weights.z_max[i].powi(-2));
+    /// `tau` \[s\] is the steering actuator's time constant (at least `ts` is used).
+    pub fn design(p: &VehicleParams, weights: &Weights, ts: f64, tau: f64) -> Result<Self, String> {
+        let tau = tau.max(ts);
+        let q: [f64; NA] = std::array::from_fn(|i| weights.z_max[i].powi(-2));
         let r: [f64; NV] = std::array::from_fn(|i| weights.v_max[i].powi(-2));
         let (v_lo, v_hi) = SCHEDULE_SPEEDS;
         let dv = 1.0;
@@ -172,7 +206,8 @@ impl GainSchedule {
         for k in 0..n {
             let v = v_lo + k as f64 * dv;
             let (a, b) = linearise(p, v);
-            let (ad, bd) = discretise(&a, &b, ts);
+            let (aa, ba) = augment(&a, &b, tau);
+            let (ad, bd) = discretise(&aa, &ba, ts);
             let gain = dlqr(&ad, &bd, &q, &r)
                 .ok_or_else(|| format!("LQR design failed at V = {v} m/s"))?;
             gains.push(gain);
@@ -251,26 +286,30 @@ mod tests {
         }
     }
 
-    /// The discrete closed loop A - B K is stable (spectral radius below 1) at every speed of
-    /// the schedule, and the open loop at speed has the expected integrators (e, dpsi).
+    /// The discrete closed loop A - B K of the lag-augmented error dynamics is stable
+    /// (spectral radius below 1) at every speed of the schedule, for the default 50 ms
+    /// steering lag and for an actuator as fast as the loop.
     #[test]
     fn the_designed_gains_stabilise_the_error_dynamics_at_every_speed() {
         let p = lc500();
         let ts = 0.001;
-        let sched = GainSchedule::design(&p, &Weights::default(), ts).unwrap();
-        let (lo, hi) = SCHEDULE_SPEEDS;
-        let mut v = lo;
-        while v <= hi {
-            let (a, b) = linearise(&p, v);
-            let (ad, bd) = discretise(&a, &b, ts);
-            let cl = ad - bd * sched.gain(v);
-            let rho = cl
-                .complex_eigenvalues()
-                .iter()
-                .map(|z| z.norm())
-                .fold(0.0, f64::max);
-            assert!(rho < 1.0, "V = {v}: spectral radius {rho}");
-            v += 2.5;
+        for tau in [0.05, 0.0] {
+            let sched = GainSchedule::design(&p, &Weights::default(), ts, tau).unwrap();
+            let (lo, hi) = SCHEDULE_SPEEDS;
+            let mut v = lo;
+            while v <= hi {
+                let (a, b) = linearise(&p, v);
+                let (aa, ba) = augment(&a, &b, tau.max(ts));
+                let (ad, bd) = discretise(&aa, &ba, ts);
+                let cl = ad - bd * sched.gain(v);
+                let rho = cl
+                    .complex_eigenvalues()
+                    .iter()
+                    .map(|z| z.norm())
+                    .fold(0.0, f64::max);
+                assert!(rho < 1.0, "tau {tau}, V = {v}: spectral radius {rho}");
+                v += 2.5;
+            }
         }
     }
 
@@ -278,9 +317,10 @@ mod tests {
     fn the_discretisation_matches_euler_for_a_small_step() {
         let p = lc500();
         let (a, b) = linearise(&p, 30.0);
+        let (a, b) = augment(&a, &b, 0.05);
         let ts = 1e-7;
         let (ad, bd) = discretise(&a, &b, ts);
-        let euler = MatZ::identity() + a * ts;
+        let euler = MatA::identity() + a * ts;
         assert!((ad - euler).abs().max() < 1e-9);
         assert!((bd - b * ts).abs().max() < 1e-9 * b.abs().max());
     }

@@ -20,6 +20,7 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use plan_record::now_ns;
+use planner::guess::GuessKind;
 use planner::ip::{SolveInfo, Status};
 use planner::model::{ix, NU, NX};
 use planner::plan::{Planner, ReplanGuess, WarmOptions};
@@ -79,6 +80,16 @@ pub struct PlannerArgs {
     /// Lane margin the plan keeps from each edge [m] (room for tracking error).
     #[arg(long, default_value_t = 0.5)]
     pub lane_margin_m: f64,
+    /// Fraction of the vehicle file's tire-road friction the plans use (0.5 to 1): the
+    /// grip left over is the tracker's authority to correct errors and the margin for a
+    /// road that grips less than the file says (docs/plant-and-tracker.md).
+    #[arg(long, default_value_t = 1.0)]
+    pub friction_scale: f64,
+    /// Guess of a cold (not warm-started) solve: `equilibrium` (paper eq. 8, constant
+    /// speed) or `road_speed` (the equilibrium capped by the speeds the window's curvature
+    /// allows, `planner::guess::fill_road_speed`).
+    #[arg(long, default_value = "equilibrium", value_parser = ["equilibrium", "road_speed"])]
+    pub cold_guess: String,
     /// Warm-start from the previous plan shifted in s, primal and dual, with a barrier
     /// parameter matched to the shifted point (`Planner::replan_warm`; off by default:
     /// warm-started plans are not recorded, see docs/solver.md).
@@ -299,6 +310,8 @@ struct PlannerLoop {
     v_max: f64,
     margin: f64,
     warm_start: bool,
+    /// Guess of a cold solve.
+    cold_guess: GuessKind,
     recorder: Option<CycleRecorder>,
     cy: Cycle,
     policy: publish_policy::Policy,
@@ -336,10 +349,18 @@ impl PlannerLoop {
                 "--lane-margin-m must be >= 0".into(),
             ));
         }
+        if !(0.5..=1.0).contains(&args.friction_scale) {
+            return Err(PlannerProcError::Setup(format!(
+                "--friction-scale {}: must be in [0.5, 1]",
+                args.friction_scale
+            )));
+        }
         let (budget_ms, first_budget_ms) = budget::budgets_ms(args)?;
+        let cold_guess = GuessKind::parse(&args.cold_guess).unwrap_or(GuessKind::Equilibrium);
         crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
-        let sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
+        let mut sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
+        sc.spec.vehicle.mu *= args.friction_scale;
         sc.road.check_margin(args.lane_margin_m).map_err(|e| {
             PlannerProcError::Setup(format!(
                 "--lane-margin-m on {}: {e}",
@@ -350,13 +371,14 @@ impl PlannerLoop {
         settings.max_time_s = budget_ms * 1e-3;
         let ds = sc.ds();
         let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
-        let recorder =
-            match &args.record {
-                Some(path) => Some(CycleRecorder::create(path, &sc.spec, &settings).map_err(
-                    |e| PlannerProcError::Setup(format!("--record {}: {e}", path.display())),
-                )?),
-                None => None,
-            };
+        let recorder = match &args.record {
+            Some(path) => Some(
+                CycleRecorder::create(path, &sc.spec, &settings, cold_guess).map_err(|e| {
+                    PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
+                })?,
+            ),
+            None => None,
+        };
         settings.max_time_s = first_budget_ms * 1e-3;
         let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
@@ -375,6 +397,7 @@ impl PlannerLoop {
             v_max,
             margin: args.lane_margin_m,
             warm_start: args.warm_start == "on",
+            cold_guess: GuessKind::parse(&args.cold_guess).unwrap_or(GuessKind::Equilibrium),
             recorder,
             cy,
             policy: publish_policy::Policy::default(),
@@ -535,7 +558,10 @@ impl PlannerLoop {
                 x0,
                 (&cy.guess_x, &cy.guess_u),
                 shift,
-                WarmOptions::default(),
+                WarmOptions {
+                    cold: self.cold_guess,
+                    ..WarmOptions::default()
+                },
             );
             match r {
                 Ok(r) if r.fell_back => {
@@ -555,7 +581,10 @@ impl PlannerLoop {
             &cy.road.e_min,
             &cy.road.e_max,
             x0,
-            ReplanGuess::Equilibrium,
+            match self.cold_guess {
+                GuessKind::RoadSpeed => ReplanGuess::RoadSpeed,
+                _ => ReplanGuess::Equilibrium,
+            },
         ) {
             Ok(i) => Some((i, false)),
             Err(e) => {

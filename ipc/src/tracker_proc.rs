@@ -12,10 +12,10 @@ use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
-use planner::model::ix;
+use planner::model::{iu, ix};
 
 use crate::clock::monotonic_ns;
-use crate::controller::Controller;
+use crate::controller::{Actuator, Controller};
 use crate::elog;
 use crate::kinds::KindCounts;
 use crate::mismatch::Mismatch;
@@ -395,7 +395,11 @@ impl TrackerLoop {
         // feed-forward looks ahead by the transport delay plus the steering lag.
         let preview =
             car.delay_steps() as f64 * args.control_dt_s + mismatch.actuator.steering_lag_s;
-        let controller = Controller::new(&sc.spec.vehicle, args.control_dt_s, preview)
+        let actuator = Actuator {
+            steering_lag_s: mismatch.actuator.steering_lag_s,
+            delay_steps: car.delay_steps(),
+        };
+        let controller = Controller::new(&sc.spec.vehicle, args.control_dt_s, preview, actuator)
             .map_err(TrackerProcError::Setup)?;
         Ok(Self {
             sc,
@@ -531,6 +535,7 @@ impl TrackerLoop {
                 }
                 None => brake_to_stop(&params, &self.gains, &y, road, self.e_hold),
             };
+            self.controller.applied(u[iu::DELTA]);
             car.drive(u, road, self.substeps, self.plant_dt);
             self.log.step(&car.plant.x, road);
             stats.e_lo = stats.e_lo.min(car.plant.x[ix::E]);
@@ -570,6 +575,9 @@ impl TrackerLoop {
         }
         if self.car.plant.x[ix::T] >= args.duration_s {
             return Some("duration reached");
+        }
+        if self.log.left_track() {
+            return Some("left the track");
         }
         if let Some(at) = self.stopped_at {
             if now.duration_since(at).as_secs_f64() >= args.linger_s {
@@ -740,6 +748,8 @@ fn outcome(tl: &TrackerLoop, end_reason: &str) -> &'static str {
     }
     if reached {
         "completed"
+    } else if end_reason == "left the track" {
+        "left_track"
     } else if tl.ever_stale {
         "stopped_stale_plan"
     } else {

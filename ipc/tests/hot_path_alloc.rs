@@ -131,7 +131,13 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     let dir = std::env::temp_dir().join(format!("trajopt_alloc_record_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("cycle.mcap");
-    let rec = CycleRecorder::create(&file, &sc.spec, &sc.settings).unwrap();
+    let rec = CycleRecorder::create(
+        &file,
+        &sc.spec,
+        &sc.settings,
+        planner::guess::GuessKind::Equilibrium,
+    )
+    .unwrap();
     let ds = sc.spec.ds();
     let mut window = RoadWindow::default();
     let mut x0 = xs[0];
@@ -199,7 +205,11 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
         control_dt,
         3,
     );
-    let controller = Controller::new(&p, control_dt, 0.07).unwrap();
+    let actuator = ipc::controller::Actuator {
+        steering_lag_s: 0.05,
+        delay_steps: 20,
+    };
+    let mut controller = Controller::new(&p, control_dt, 0.07, actuator).unwrap();
     let mut x = [0.0; NX];
     x[ix::V] = 15.0;
     x[ix::VWR] = 15.0;
@@ -220,6 +230,7 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
         let (u, _) = controller
             .control(&plan, &y)
             .expect("the plan covers the car");
+        controller.applied(u[planner::model::iu::DELTA]);
         car.drive(u, &sc.road, substeps, control_dt / substeps as f64);
         steps += 1;
     };

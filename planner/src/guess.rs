@@ -4,6 +4,16 @@
 //! single state/control pair whose dynamic rates vanish (straight line, k_ref = 0), with
 //! our own interior-point solver and exact derivatives. Every node of the OCP then gets
 //! that pair; e = dpsi = 0, s_k = k ds and t_k = s_k / V (paper Sec. V).
+//!
+//! The road-speed guess ([`fill_road_speed`]) keeps that pair but caps each node's speed
+//! by what the road ahead allows a car on the centre line with lateral and longitudinal
+//! acceleration a = mu g:
+//!
+//!   V_k <= sqrt(a / |k_ref(s_k)|),   V_k <= sqrt(V_{k+1}^2 + 2 a ds)   (backward pass),
+//!
+//! the quasi-steady-state speed profile of lap-time simulation, so a corner that enters
+//! the far end of a long horizon is not guessed at straight-line speed. It still uses no
+//! reference trajectory: only the road's curvature and the vehicle's friction.
 
 use nalgebra::{SMatrix, SVector};
 use num_dual::{hessian, jacobian, Dual2SVec64, DualNum, DualSVec64};
@@ -29,6 +39,8 @@ pub enum GuessKind {
     Equilibrium,
     /// Every decision variable zero (the paper's ill-informed guess).
     Zero,
+    /// The equilibrium pair at speeds the road's curvature allows ([`fill_road_speed`]).
+    RoadSpeed,
 }
 
 impl GuessKind {
@@ -37,6 +49,7 @@ impl GuessKind {
         match self {
             GuessKind::Equilibrium => "equilibrium",
             GuessKind::Zero => "zero",
+            GuessKind::RoadSpeed => "road_speed",
         }
     }
     /// Parses `equilibrium` or `zero`.
@@ -44,6 +57,7 @@ impl GuessKind {
         match s {
             "equilibrium" => Some(GuessKind::Equilibrium),
             "zero" => Some(GuessKind::Zero),
+            "road_speed" => Some(GuessKind::RoadSpeed),
             _ => None,
         }
     }
@@ -388,6 +402,62 @@ pub fn fill_equilibrium(
     }
 }
 
+/// Fills node states and controls like [`fill_equilibrium`], then caps each node's speed by
+/// the road-speed profile of the module docs for curvature `kappa` (N + 1 node values)
+/// and friction `mu` with gravity `g`: V and V_wr scale together, the yaw rate follows
+/// the centre line (r = k_ref V), the steering adds the kinematic angle (a + b) k_ref, and
+/// t_k integrates ds / V by the trapezoidal rule. Node 0 keeps a fixed initial state.
+/// Allocates nothing.
+#[allow(clippy::too_many_arguments)]
+pub fn fill_road_speed(
+    eq: &Equilibrium,
+    ds: f64,
+    kappa: &[f64],
+    (mu, g, wheelbase): (f64, f64, f64),
+    fixed_x0: Option<&[f64; NX]>,
+    xs: &mut [[f64; NX]],
+    us: &mut [[f64; NU]],
+) {
+    fill_equilibrium(eq, ds, fixed_x0, xs, us);
+    let v_top = match fixed_x0 {
+        Some(x0) if x0[ix::V] > 0.0 => x0[ix::V],
+        _ => eq.x[ix::V],
+    };
+    let a = (mu * g).max(1e-3);
+    // Curvature cap, then the backward braking pass, written into V of each node.
+    for (k, x) in xs.iter_mut().enumerate() {
+        let kap = kappa.get(k).copied().unwrap_or(0.0).abs();
+        x[ix::V] = if kap > 1e-9 {
+            v_top.min((a / kap).sqrt())
+        } else {
+            v_top
+        };
+    }
+    for k in (0..xs.len().saturating_sub(1)).rev() {
+        let reach = (xs[k + 1][ix::V].powi(2) + 2.0 * a * ds).sqrt();
+        xs[k][ix::V] = xs[k][ix::V].min(reach);
+    }
+    let v_eq = eq.x[ix::V].max(1e-3);
+    let mut t = 0.0;
+    for k in 0..xs.len() {
+        let v = xs[k][ix::V].max(1e-3);
+        if k > 0 {
+            t += 2.0 * ds / (xs[k - 1][ix::V].max(1e-3) + v);
+        }
+        let kap = kappa.get(k).copied().unwrap_or(0.0);
+        let x = &mut xs[k];
+        x[ix::VWR] = eq.x[ix::VWR] * v / v_eq;
+        x[ix::R] = kap * v;
+        x[ix::T] = t;
+        if let Some(u) = us.get_mut(k) {
+            u[iu::DELTA] = eq.u[iu::DELTA] + wheelbase * kap;
+        }
+    }
+    if let (Some(x0), Some(first)) = (fixed_x0, xs.first_mut()) {
+        *first = *x0;
+    }
+}
+
 /// Fills every node with zeros (the paper's ill-informed guess). With a fixed initial
 /// state, node 0 takes it: the initial-condition rows hold x_0 there and its speed is not
 /// bounded below, so a zero V_0 would put 0/0 into the node-0 saturation rows (the slips
@@ -430,5 +500,81 @@ mod tests {
         assert_eq!(us, [[0.0; NU]; 2]);
         fill_zero(None, &mut xs, &mut us);
         assert_eq!(xs, [[0.0; NX]; 3]);
+    }
+
+    /// A hairpin at the end of the window: its nodes are guessed at the speed the
+    /// friction allows on the centre line, every node before can brake to the next with
+    /// mu g, the straight start keeps the start speed, and time grows by ds / V.
+    #[test]
+    fn the_road_speed_guess_reaches_a_far_hairpin_at_its_cornering_speed() {
+        let p = lc500();
+        let eq = equilibrium(&p, 5.0, 70.0, 55.0).unwrap();
+        let (n, ds) = (100, 2.5);
+        let kappa: Vec<f64> = (0..=n).map(|k| if k >= 90 { 0.08 } else { 0.0 }).collect();
+        let mut xs = vec![[0.0; NX]; n + 1];
+        let mut us = vec![[0.0; NU]; n];
+        let mut x0 = eq.x;
+        x0[ix::V] = 55.0;
+        fill_road_speed(
+            &eq,
+            ds,
+            &kappa,
+            (p.mu, p.g, p.a + p.b),
+            Some(&x0),
+            &mut xs,
+            &mut us,
+        );
+        let a = p.mu * p.g;
+        let v_corner = (a / 0.08).sqrt();
+        for k in 90..=n {
+            assert!(
+                (xs[k][ix::V] - v_corner).abs() < 1e-9,
+                "node {k}: {:?}",
+                xs[k]
+            );
+            assert!((xs[k][ix::R] - 0.08 * v_corner).abs() < 1e-9);
+        }
+        for k in 0..n {
+            let gap = xs[k][ix::V].powi(2) - xs[k + 1][ix::V].powi(2);
+            assert!(
+                gap <= 2.0 * a * ds + 1e-9,
+                "node {k} cannot brake to node {}",
+                k + 1
+            );
+            assert!(xs[k + 1][ix::T] > xs[k][ix::T]);
+        }
+        assert_eq!(xs[0], x0);
+        assert_eq!(xs[1][ix::V], 55.0);
+        // The braking starts where the distance to the hairpin asks for it.
+        let brake_from = 90.0 - (55.0f64.powi(2) - v_corner.powi(2)) / (2.0 * a * ds);
+        assert!(xs[brake_from.floor() as usize - 1][ix::V] >= 55.0 - 1e-9);
+        assert!(xs[brake_from.ceil() as usize + 1][ix::V] < 55.0);
+    }
+
+    /// On a straight road the road-speed guess is the equilibrium guess.
+    #[test]
+    fn on_a_straight_road_the_road_speed_guess_is_the_equilibrium_guess() {
+        let p = lc500();
+        let eq = equilibrium(&p, 5.0, 40.0, 20.0).unwrap();
+        let (mut xa, mut ua) = (vec![[0.0; NX]; 11], vec![[0.0; NU]; 10]);
+        let (mut xb, mut ub) = (xa.clone(), ua.clone());
+        fill_equilibrium(&eq, 2.5, None, &mut xa, &mut ua);
+        let kappa = [0.0; 11];
+        fill_road_speed(
+            &eq,
+            2.5,
+            &kappa,
+            (p.mu, p.g, p.a + p.b),
+            None,
+            &mut xb,
+            &mut ub,
+        );
+        for k in 0..11 {
+            for i in [ix::V, ix::VWR, ix::BETA, ix::DFZ, ix::S] {
+                assert_eq!(xa[k][i], xb[k][i], "node {k} state {i}");
+            }
+            assert!((xa[k][ix::T] - xb[k][ix::T]).abs() < 1e-12);
+        }
+        assert_eq!(ua, ub);
     }
 }

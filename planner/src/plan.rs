@@ -52,6 +52,9 @@ pub enum ReplanGuess<'a> {
     /// replan equals a fresh [`Planner::new`] + [`Planner::solve`] bit for bit), with x_0
     /// set to the fixed initial state.
     Equilibrium,
+    /// The equilibrium pair at the speeds the window's curvature allows
+    /// ([`guess::fill_road_speed`]), x_0 set to the fixed initial state.
+    RoadSpeed,
     /// A caller-built guess (e.g. the previous solution shifted in s): N + 1 states, N controls.
     Warm(&'a [[f64; NX]], &'a [[f64; NU]]),
 }
@@ -141,6 +144,19 @@ impl<const N: usize> Planner<N> {
                 &mut self.us,
             ),
             GuessKind::Zero => guess::fill_zero(fixed.as_ref(), &mut self.xs, &mut self.us),
+            GuessKind::RoadSpeed => {
+                let spec = self.nlp.spec();
+                let p = &spec.vehicle;
+                guess::fill_road_speed(
+                    &self.equilibrium,
+                    spec.ds(),
+                    &spec.kappa,
+                    (p.mu, p.g, p.a + p.b),
+                    fixed.as_ref(),
+                    &mut self.xs,
+                    &mut self.us,
+                )
+            }
         }
         self.nlp.set_initial_guess(&self.xs, &self.us);
     }
@@ -188,14 +204,17 @@ impl<const N: usize> Planner<N> {
         }
         self.set_window(kappa, e_min, e_max, x0)?;
         match guess {
-            ReplanGuess::Equilibrium => {
+            ReplanGuess::Equilibrium | ReplanGuess::RoadSpeed => {
                 if x0[ix::V].to_bits() != self.v_start.to_bits() {
                     let spec = self.nlp.spec();
                     self.equilibrium =
                         guess::equilibrium(&spec.vehicle, spec.v_min, spec.v_max, x0[ix::V])?;
                     self.v_start = x0[ix::V];
                 }
-                self.set_guess(GuessKind::Equilibrium)
+                self.set_guess(match guess {
+                    ReplanGuess::RoadSpeed => GuessKind::RoadSpeed,
+                    _ => GuessKind::Equilibrium,
+                })
             }
             ReplanGuess::Warm(xs, us) => self.nlp.set_initial_guess(xs, us),
         }

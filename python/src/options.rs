@@ -18,10 +18,13 @@ pub const VEHICLE: &str = "config/vehicles/lc500.toml";
 /// The segments file whose `[defaults]` a track stretch takes.
 pub const SEGMENTS: &str = "config/scenarios/segments.toml";
 
-/// `guess`: `equilibrium` or `zero`.
+/// `guess`: `equilibrium`, `zero` or `road_speed`.
 pub fn guess(v: &str) -> PyResult<GuessKind> {
-    GuessKind::parse(v)
-        .ok_or_else(|| err(format!("guess: `{v}` is not one of `equilibrium`, `zero`")))
+    GuessKind::parse(v).ok_or_else(|| {
+        err(format!(
+            "guess: `{v}` is not one of `equilibrium`, `zero`, `road_speed`"
+        ))
+    })
 }
 
 /// `barrier`: one of the solver's barrier rules.

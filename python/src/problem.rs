@@ -189,12 +189,20 @@ impl Problem {
                 guess::fill_equilibrium(&eq, self.spec.ds(), fixed.as_ref(), &mut xs, &mut us);
             }
             GuessKind::Zero => guess::fill_zero(fixed.as_ref(), &mut xs, &mut us),
+            GuessKind::RoadSpeed => {
+                let eq = py.detach(|| self.equilibrium())?;
+                let p = &self.spec.vehicle;
+                let friction = (p.mu, p.g, p.a + p.b);
+                let (ds, kappa) = (self.spec.ds(), &self.spec.kappa);
+                let x0 = fixed.as_ref();
+                guess::fill_road_speed(&eq, ds, kappa, friction, x0, &mut xs, &mut us);
+            }
         }
         Ok((matrix(py, &xs)?, matrix(py, &us)?))
     }
 
     /// Solves the problem as `trajopt solve` does, with its options: `guess`
-    /// (`equilibrium` or `zero`), `max_iter`, `budget_ms` (wall-clock budget: a solve that
+    /// (`equilibrium`, `zero` or `road_speed`), `max_iter`, `budget_ms` (wall-clock budget: a solve that
     /// spends it ends `time_limit`), `steering_slew_weight` and `tire_saturation`
     /// (override the problem's), `barrier`, `kkt`, `threads`, `solver` (the solver file;
     /// default: the one named at load time, else the shipped one for the objective).

@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use plan_record::{first_difference, PlanOutput, Recording};
+use planner::guess::GuessKind;
 use planner::plan::choice::PlanKind;
 use planner::plan::Planner;
 use planner::record::{plan_output, problem_from};
@@ -25,6 +26,9 @@ pub struct RunOptions {
     pub budgets: Budgets,
     /// Core to pin the solver thread to; None: the last core.
     pub core: Option<usize>,
+    /// Initial guess of every solve (None: the recorded one). A solve from another guess
+    /// is compared with nothing.
+    pub guess: Option<GuessKind>,
 }
 
 impl Default for RunOptions {
@@ -33,6 +37,7 @@ impl Default for RunOptions {
             budget_ms: 100.0,
             budgets: Budgets::default(),
             core: None,
+            guess: None,
         }
     }
 }
@@ -257,7 +262,8 @@ fn replay_all(
     planner::progress::begin(rec.inputs.len() as u64, "replay");
     let mut sent = SentPlans::default();
     for input in &rec.inputs {
-        let (spec, recorded_settings, guess) = problem_from(input)?;
+        let (spec, recorded_settings, recorded_guess) = problem_from(input)?;
+        let guess = opts.guess.unwrap_or(recorded_guess);
         let settings = opts.budgets.apply(recorded_settings);
         if spec.n_intervals != N {
             return Err(ReplayError::Horizon {
@@ -277,7 +283,8 @@ fn replay_all(
         // A solve stopped by other caps than the recorded ones is compared with nothing.
         let recorded = outputs
             .get(&input.seq)
-            .filter(|r| comparable((&info, &settings), (r, &recorded_settings)));
+            .filter(|r| comparable((&info, &settings), (r, &recorded_settings)))
+            .filter(|_| guess == recorded_guess);
         let difference = recorded.and_then(|r| first_difference(r, &replayed));
         results.push(PlanResult {
             seq: input.seq,

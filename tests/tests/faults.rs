@@ -357,7 +357,7 @@ fn bad_states_are_counted_and_never_planned_from() {
 /// exit code 2 and the option named.
 #[test]
 fn options_that_would_hang_or_panic_are_refused_by_name() {
-    let cases: [(&str, &[&str], &str); 6] = [
+    let cases: [(&str, &[&str], &str); 8] = [
         ("tracker_proc", &["--plant-dt-s", "1e-9"], "--plant-dt-s"),
         (
             "tracker_proc",
@@ -376,6 +376,16 @@ fn options_that_would_hang_or_panic_are_refused_by_name() {
             "--gap-s",
         ),
         ("planner_proc", &["--rate-hz", "0"], "--rate-hz"),
+        (
+            "planner_proc",
+            &["--friction-scale", "0.2"],
+            "--friction-scale",
+        ),
+        (
+            "planner_proc",
+            &["--friction-scale", "NaN"],
+            "--friction-scale",
+        ),
     ];
     for (bin, args, option) in cases {
         let out = command(bin)

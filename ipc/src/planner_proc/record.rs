@@ -28,9 +28,14 @@ impl CycleRecorder {
     pub const SLOTS: usize = 128;
 
     /// Creates the file; every slot starts as the record of `spec` solved with `settings`
-    /// from the equilibrium guess, with room for a road of the planner's horizon.
-    pub fn create(path: &Path, spec: &OcpSpec, settings: &Settings) -> Result<Self, RecordError> {
-        let mut input = planner::record::plan_input(spec, settings, GuessKind::Equilibrium, 0, 0);
+    /// from the cold guess `guess`, with room for a road of the planner's horizon.
+    pub fn create(
+        path: &Path,
+        spec: &OcpSpec,
+        settings: &Settings,
+        guess: GuessKind,
+    ) -> Result<Self, RecordError> {
+        let mut input = planner::record::plan_input(spec, settings, guess, 0, 0);
         for v in [&mut input.kappa, &mut input.e_min, &mut input.e_max] {
             v.reserve(HORIZON_N + 1);
         }

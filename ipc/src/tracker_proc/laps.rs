@@ -13,6 +13,11 @@ use crate::road::footprint::{
 };
 use crate::road::ClosedRoad;
 
+/// How far outside a lane edge the CG may go before the drive is over \[m\]: past it the
+/// car has left the road (and the road frame's curvilinear coordinates lose their meaning
+/// once the car is beyond a curve's centre), so the run ends as `left_track`.
+pub const LEFT_TRACK_M: f64 = 3.0;
+
 /// Period of the driven trace [s].
 pub const TRACE_DT_S: f64 = 0.01;
 /// Plans logged per second of the run's cap (twice the default 10 Hz, room for 20 Hz).
@@ -140,6 +145,11 @@ impl RunLog {
                 d
             })
             .collect()
+    }
+
+    /// True once the car's CG has been more than `LEFT_TRACK_M` outside a lane edge.
+    pub fn left_track(&self) -> bool {
+        self.min_edge_margin < -LEFT_TRACK_M
     }
 
     /// True once the wanted laps are driven.

@@ -17,6 +17,7 @@
 //! cap and of the time budget, so the two solves together keep the caps of one.
 
 use super::{PlanError, Planner, ReplanGuess};
+use crate::guess::GuessKind;
 use crate::ip::{SolveInfo, WarmStart};
 use crate::model::{ix, NU, NX};
 use crate::ocp::layout::VarKind;
@@ -31,6 +32,9 @@ pub struct WarmOptions {
     pub max_iter: usize,
     /// Lower clip of the matched barrier parameter.
     pub mu_floor: f64,
+    /// The cold start the replan falls back to (equilibrium or road speed; the zero
+    /// guess falls back to the equilibrium).
+    pub cold: GuessKind,
 }
 
 impl Default for WarmOptions {
@@ -38,6 +42,7 @@ impl Default for WarmOptions {
         Self {
             max_iter: usize::MAX,
             mu_floor: 1e-6,
+            cold: GuessKind::Equilibrium,
         }
     }
 }
@@ -206,7 +211,11 @@ impl<const N: usize> Planner<N> {
             ..base
         };
         self.solver.set_settings(rest).ok();
-        let cold = self.replan(kappa, e_min, e_max, x0, ReplanGuess::Equilibrium);
+        let guess = match opts.cold {
+            GuessKind::RoadSpeed => ReplanGuess::RoadSpeed,
+            _ => ReplanGuess::Equilibrium,
+        };
+        let cold = self.replan(kappa, e_min, e_max, x0, guess);
         self.solver.set_settings(base).ok();
         Ok(WarmReplan {
             info: cold?,

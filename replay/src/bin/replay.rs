@@ -15,6 +15,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use plan_record::Recording;
 use planner::config::paths::resolve_path;
+use planner::guess::GuessKind;
 use planner::{err, errln, out, outln};
 use replay::oval::{record_oval, OvalOptions};
 use replay::run::{run, RunOptions};
@@ -42,6 +43,10 @@ enum Command {
         /// Core to pin the solver thread to (default: the last core).
         #[arg(long)]
         core: Option<usize>,
+        /// Initial guess of every solve: equilibrium, zero or road_speed (default: the
+        /// recorded one; another guess is compared with no recorded output).
+        #[arg(long, value_parser = ["equilibrium", "zero", "road_speed"])]
+        guess: Option<String>,
         /// Print exactly one JSON object on stdout.
         #[arg(long)]
         json: bool,
@@ -119,6 +124,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             budget_ms,
             max_iter,
             core,
+            guess,
             json,
             per_plan,
             plot,
@@ -131,6 +137,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                     max_iter,
                 },
                 core,
+                guess: guess.as_deref().and_then(GuessKind::parse),
             };
             let mut report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
             if let Some(png) = &plot {

@@ -18,6 +18,8 @@ pub enum OnOff {
 pub enum GuessArg {
     Equilibrium,
     Zero,
+    #[value(name = "road_speed")]
+    RoadSpeed,
 }
 
 impl GuessArg {
@@ -26,6 +28,7 @@ impl GuessArg {
         match self {
             GuessArg::Equilibrium => GuessKind::Equilibrium,
             GuessArg::Zero => GuessKind::Zero,
+            GuessArg::RoadSpeed => GuessKind::RoadSpeed,
         }
     }
 }

@@ -61,6 +61,21 @@ pub struct ClosedLoopArgs {
     /// of the period).
     #[arg(long)]
     budget_ms: Option<f64>,
+    /// Fraction of the vehicle file's friction the plans use (`planner_proc
+    /// --friction-scale`; the plant keeps its own).
+    #[arg(long, default_value_t = 1.0)]
+    friction_scale: f64,
+    /// Guess of a cold solve: equilibrium or road_speed (`planner_proc --cold-guess`).
+    #[arg(long, default_value = "equilibrium", value_parser = ["equilibrium", "road_speed"])]
+    cold_guess: String,
+    /// Warm-start each plan from the previous one, shifted to the car (`planner_proc
+    /// --warm-start`; docs/solver.md).
+    #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+    warm_start: String,
+    /// Keep the tracker's driven trace and plan log (driven.csv, plans.csv) in this folder
+    /// (default: a temporary folder removed after the run).
+    #[arg(long)]
+    trace_dir: Option<PathBuf>,
     #[command(flatten)]
     road: road::RoadOpts,
 }
@@ -184,6 +199,12 @@ fn spawn_pair(
     if let Some(ms) = args.budget_ms {
         pc.arg("--budget-ms").arg(ms.to_string());
     }
+    pc.arg("--warm-start")
+        .arg(&args.warm_start)
+        .arg("--cold-guess")
+        .arg(&args.cold_guess)
+        .arg("--friction-scale")
+        .arg(args.friction_scale.to_string());
     let planner = ChildGuard(Some(
         pc.spawn()
             .map_err(|e| format!("{}: {e}", planner_exe.display()))?,
@@ -250,8 +271,13 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
             .map_or(0, |d| d.subsec_nanos());
         format!("trajopt-{}-{nanos}", std::process::id())
     });
-    let trace_dir = std::env::temp_dir().join(format!("{prefix}-trace"));
-    let _cleanup = summary::RemoveOnDrop(trace_dir.clone());
+    let (trace_dir, _cleanup) = match &args.trace_dir {
+        Some(dir) => (resolve(dir), None),
+        None => {
+            let dir = std::env::temp_dir().join(format!("{prefix}-trace"));
+            (dir.clone(), Some(summary::RemoveOnDrop(dir)))
+        }
+    };
     let (mut planner, mut tracker) = spawn_pair(&args, &exes, &prefix, (duration_s, &trace_dir))?;
     // Simulated time runs at wall-clock speed; the first plan may take a while on a loaded machine.
     let limit = Duration::from_secs_f64(duration_s + 180.0);

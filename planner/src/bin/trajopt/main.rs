@@ -35,6 +35,8 @@ struct Cli {
     command: Option<Command>,
 }
 
+// Parsed once per run: the size of its largest variant costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Solve one scenario (default: the oval) and write CSV + PNG.

@@ -54,6 +54,20 @@ pub(super) fn solve_recorded(
             fill_equilibrium(&eq, spec.ds(), None, &mut xs, &mut us);
         }
         GuessKind::Zero => fill_zero(None, &mut xs, &mut us),
+        GuessKind::RoadSpeed => {
+            let eq = equilibrium(&spec.vehicle, spec.v_min, spec.v_max, DEFAULT_GUESS_SPEED)?;
+            let p = &spec.vehicle;
+            let friction = (p.mu, p.g, p.a + p.b);
+            crate::guess::fill_road_speed(
+                &eq,
+                spec.ds(),
+                &spec.kappa,
+                friction,
+                None,
+                &mut xs,
+                &mut us,
+            );
+        }
     }
     let mut nlp = ImplicitEulerNlp::<HORIZON>::new(spec.clone())?;
     nlp.set_initial_guess(&xs, &us);

@@ -48,6 +48,10 @@ pub struct RoadOpts {
     /// (default: half the car's body length; 0: the scenario's bound at the CG only).
     #[arg(long)]
     pub obstacle_reach_m: Option<f64>,
+    /// Speed cap of the plans on a track [m/s] (default 55: the plan's end state is free,
+    /// so a faster plan can meet a hairpin closer than its braking distance).
+    #[arg(long)]
+    pub track_v_max_mps: Option<f64>,
     /// Folder for the figures ROAD_lap.png and ROAD_speed.png.
     #[arg(long, default_value = "out")]
     pub out_dir: PathBuf,
@@ -81,6 +85,9 @@ impl RoadOpts {
         }
         if let Some(s) = &self.tire_saturation {
             c.arg("--tire-saturation").arg(s);
+        }
+        if let Some(v) = self.track_v_max_mps {
+            c.arg("--track-v-max-mps").arg(v.to_string());
         }
         c.arg("--lane-margin-m").arg(self.margin().to_string());
     }

@@ -31,8 +31,11 @@ use crate::stats::Latency;
 use crate::tracker::{brake_to_stop, ForeignPlans, Gains, Ownership};
 
 mod laps;
+mod outcome;
 mod start;
+
 pub use laps::RunLog;
+use outcome::outcome;
 pub use start::initial_state;
 
 /// Command-line options of `tracker_proc`.
@@ -721,40 +724,6 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         }
     }
     Ok(report)
-}
-
-/// How the drive ended, in one word (`outcome` of the report): a stop for want of a
-/// feasible plan before the end, else the obstacles' verdict, else whether the drive was
-/// completed.
-fn outcome(tl: &TrackerLoop, end_reason: &str) -> &'static str {
-    let reached = end_reason == "distance reached";
-    let log = tl.log.json();
-    if tl.no_feasible_plan && !reached {
-        let in_lane = log["lane_kept"].as_bool() == Some(true);
-        return if tl.car.plant.stopped && in_lane {
-            "stopped_in_lane_no_feasible_plan"
-        } else if tl.car.plant.stopped {
-            "stopped_off_lane_no_feasible_plan"
-        } else {
-            "braking_no_feasible_plan"
-        };
-    }
-    if !tl.sc.road.obstacles().is_empty() {
-        return match log["obstacles_cleared"].as_bool() {
-            Some(false) => "collided",
-            _ if reached => "cleared",
-            _ => "not_reached",
-        };
-    }
-    if reached {
-        "completed"
-    } else if end_reason == "left the track" {
-        "left_track"
-    } else if tl.ever_stale {
-        "stopped_stale_plan"
-    } else {
-        "not_completed"
-    }
 }
 
 #[cfg(test)]

@@ -117,6 +117,36 @@ fn read(file: &Path) -> Result<Recording, String> {
     Ok(rec)
 }
 
+/// Prints `replay run`'s report as one JSON object (the text report on stderr); every plan
+/// when `per_plan`, else only those that differ from the recording.
+fn run_json(
+    mut report: replay::run::RunReport,
+    rec: &Recording,
+    file: &Path,
+    plot: Option<&Path>,
+    per_plan: bool,
+) -> Result<ExitCode, String> {
+    err!("{report}");
+    let differing: Vec<_> = report
+        .per_plan
+        .iter()
+        .filter(|p| p.identical == Some(false))
+        .cloned()
+        .collect();
+    let deterministic = report.deterministic;
+    if !per_plan {
+        report.per_plan = differing;
+    }
+    let mut v = serde_json::to_value(&report).map_err(|e| e.to_string())?;
+    v["file"] = file.display().to_string().into();
+    v["plot"] = plot.map(|p| p.display().to_string()).into();
+    v["recorder_dropped"] = rec.dropped().into();
+    outln!("{v}");
+    Ok(exit(
+        (deterministic || report.different == 0) && report.orphan_outputs.is_empty(),
+    ))
+}
+
 fn dispatch(command: Command) -> Result<ExitCode, String> {
     match command {
         Command::Run {
@@ -139,30 +169,12 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 core,
                 guess: guess.as_deref().and_then(GuessKind::parse),
             };
-            let mut report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
+            let report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
             if let Some(png) = &plot {
                 replay::plot::plot_latency(&report, png).map_err(|e| e.to_string())?;
             }
             if json {
-                err!("{report}");
-                let differing: Vec<_> = report
-                    .per_plan
-                    .iter()
-                    .filter(|p| p.identical == Some(false))
-                    .cloned()
-                    .collect();
-                let deterministic = report.deterministic;
-                if !per_plan {
-                    report.per_plan = differing;
-                }
-                let mut v = serde_json::to_value(&report).map_err(|e| e.to_string())?;
-                v["file"] = file.display().to_string().into();
-                v["plot"] = plot.map(|p| p.display().to_string()).into();
-                v["recorder_dropped"] = rec.dropped().into();
-                outln!("{v}");
-                return Ok(exit(
-                    (deterministic || report.different == 0) && report.orphan_outputs.is_empty(),
-                ));
+                return run_json(report, &rec, &file, plot.as_deref(), per_plan);
             }
             out!("{report}");
             if let Some(d) = rec.dropped().filter(|d| *d > 0) {

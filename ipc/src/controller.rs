@@ -96,7 +96,7 @@ impl Controller {
         self.delayed[self.next] = delta_cmd;
         self.next = (self.next + 1) % n;
         // The oldest entry is the command that leaves the transport delay now.
-        let arriving = self.delayed[self.next % n];
+        let arriving = self.delayed[self.next];
         self.delta_est += self.lag_step * (arriving - self.delta_est);
     }
 

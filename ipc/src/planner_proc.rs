@@ -397,7 +397,7 @@ impl PlannerLoop {
             v_max,
             margin: args.lane_margin_m,
             warm_start: args.warm_start == "on",
-            cold_guess: GuessKind::parse(&args.cold_guess).unwrap_or(GuessKind::Equilibrium),
+            cold_guess,
             recorder,
             cy,
             policy: publish_policy::Policy::default(),
@@ -581,10 +581,7 @@ impl PlannerLoop {
             &cy.road.e_min,
             &cy.road.e_max,
             x0,
-            match self.cold_guess {
-                GuessKind::RoadSpeed => ReplanGuess::RoadSpeed,
-                _ => ReplanGuess::Equilibrium,
-            },
+            ReplanGuess::cold(self.cold_guess),
         ) {
             Ok(i) => Some((i, false)),
             Err(e) => {

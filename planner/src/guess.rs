@@ -404,16 +404,15 @@ pub fn fill_equilibrium(
 
 /// Fills node states and controls like [`fill_equilibrium`], then caps each node's speed by
 /// the road-speed profile of the module docs for curvature `kappa` (N + 1 node values)
-/// and friction `mu` with gravity `g`: V and V_wr scale together, the yaw rate follows
+/// and the friction mu g of `vehicle`: V and V_wr scale together, the yaw rate follows
 /// the centre line (r = k_ref V), the steering adds the kinematic angle (a + b) k_ref, and
 /// t_k integrates ds / V by the trapezoidal rule. Node 0 keeps a fixed initial state.
 /// Allocates nothing.
-#[allow(clippy::too_many_arguments)]
 pub fn fill_road_speed(
     eq: &Equilibrium,
     ds: f64,
     kappa: &[f64],
-    (mu, g, wheelbase): (f64, f64, f64),
+    vehicle: &VehicleParams,
     fixed_x0: Option<&[f64; NX]>,
     xs: &mut [[f64; NX]],
     us: &mut [[f64; NU]],
@@ -423,7 +422,8 @@ pub fn fill_road_speed(
         Some(x0) if x0[ix::V] > 0.0 => x0[ix::V],
         _ => eq.x[ix::V],
     };
-    let a = (mu * g).max(1e-3);
+    let a = (vehicle.mu * vehicle.g).max(1e-3);
+    let wheelbase = vehicle.a + vehicle.b;
     // Curvature cap, then the backward braking pass, written into V of each node.
     for (k, x) in xs.iter_mut().enumerate() {
         let kap = kappa.get(k).copied().unwrap_or(0.0).abs();
@@ -515,15 +515,7 @@ mod tests {
         let mut us = vec![[0.0; NU]; n];
         let mut x0 = eq.x;
         x0[ix::V] = 55.0;
-        fill_road_speed(
-            &eq,
-            ds,
-            &kappa,
-            (p.mu, p.g, p.a + p.b),
-            Some(&x0),
-            &mut xs,
-            &mut us,
-        );
+        fill_road_speed(&eq, ds, &kappa, &p, Some(&x0), &mut xs, &mut us);
         let a = p.mu * p.g;
         let v_corner = (a / 0.08).sqrt();
         for k in 90..=n {
@@ -560,15 +552,7 @@ mod tests {
         let (mut xb, mut ub) = (xa.clone(), ua.clone());
         fill_equilibrium(&eq, 2.5, None, &mut xa, &mut ua);
         let kappa = [0.0; 11];
-        fill_road_speed(
-            &eq,
-            2.5,
-            &kappa,
-            (p.mu, p.g, p.a + p.b),
-            None,
-            &mut xb,
-            &mut ub,
-        );
+        fill_road_speed(&eq, 2.5, &kappa, &p, None, &mut xb, &mut ub);
         for k in 0..11 {
             for i in [ix::V, ix::VWR, ix::BETA, ix::DFZ, ix::S] {
                 assert_eq!(xa[k][i], xb[k][i], "node {k} state {i}");

@@ -59,6 +59,17 @@ pub enum ReplanGuess<'a> {
     Warm(&'a [[f64; NX]], &'a [[f64; NU]]),
 }
 
+impl ReplanGuess<'_> {
+    /// The cold start of a guess kind: [`ReplanGuess::RoadSpeed`] for the road-speed guess,
+    /// else [`ReplanGuess::Equilibrium`] (the zero guess is not a replanning start).
+    pub fn cold(kind: GuessKind) -> Self {
+        match kind {
+            GuessKind::RoadSpeed => ReplanGuess::RoadSpeed,
+            _ => ReplanGuess::Equilibrium,
+        }
+    }
+}
+
 /// A reusable planner for one road and vehicle with N intervals.
 #[derive(Debug)]
 pub struct Planner<const N: usize> {
@@ -146,12 +157,11 @@ impl<const N: usize> Planner<N> {
             GuessKind::Zero => guess::fill_zero(fixed.as_ref(), &mut self.xs, &mut self.us),
             GuessKind::RoadSpeed => {
                 let spec = self.nlp.spec();
-                let p = &spec.vehicle;
                 guess::fill_road_speed(
                     &self.equilibrium,
                     spec.ds(),
                     &spec.kappa,
-                    (p.mu, p.g, p.a + p.b),
+                    &spec.vehicle,
                     fixed.as_ref(),
                     &mut self.xs,
                     &mut self.us,

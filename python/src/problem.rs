@@ -191,11 +191,9 @@ impl Problem {
             GuessKind::Zero => guess::fill_zero(fixed.as_ref(), &mut xs, &mut us),
             GuessKind::RoadSpeed => {
                 let eq = py.detach(|| self.equilibrium())?;
-                let p = &self.spec.vehicle;
-                let friction = (p.mu, p.g, p.a + p.b);
-                let (ds, kappa) = (self.spec.ds(), &self.spec.kappa);
+                let (ds, kappa, p) = (self.spec.ds(), &self.spec.kappa, &self.spec.vehicle);
                 let x0 = fixed.as_ref();
-                guess::fill_road_speed(&eq, ds, kappa, friction, x0, &mut xs, &mut us);
+                guess::fill_road_speed(&eq, ds, kappa, p, x0, &mut xs, &mut us);
             }
         }
         Ok((matrix(py, &xs)?, matrix(py, &us)?))

@@ -211,11 +211,7 @@ impl<const N: usize> Planner<N> {
             ..base
         };
         self.solver.set_settings(rest).ok();
-        let guess = match opts.cold {
-            GuessKind::RoadSpeed => ReplanGuess::RoadSpeed,
-            _ => ReplanGuess::Equilibrium,
-        };
-        let cold = self.replan(kappa, e_min, e_max, x0, guess);
+        let cold = self.replan(kappa, e_min, e_max, x0, ReplanGuess::cold(opts.cold));
         self.solver.set_settings(base).ok();
         Ok(WarmReplan {
             info: cold?,

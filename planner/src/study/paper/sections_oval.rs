@@ -56,17 +56,8 @@ pub(super) fn solve_recorded(
         GuessKind::Zero => fill_zero(None, &mut xs, &mut us),
         GuessKind::RoadSpeed => {
             let eq = equilibrium(&spec.vehicle, spec.v_min, spec.v_max, DEFAULT_GUESS_SPEED)?;
-            let p = &spec.vehicle;
-            let friction = (p.mu, p.g, p.a + p.b);
-            crate::guess::fill_road_speed(
-                &eq,
-                spec.ds(),
-                &spec.kappa,
-                friction,
-                None,
-                &mut xs,
-                &mut us,
-            );
+            let (ds, kappa, p) = (spec.ds(), &spec.kappa, &spec.vehicle);
+            crate::guess::fill_road_speed(&eq, ds, kappa, p, None, &mut xs, &mut us);
         }
     }
     let mut nlp = ImplicitEulerNlp::<HORIZON>::new(spec.clone())?;

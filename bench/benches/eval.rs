@@ -2,7 +2,9 @@
 //! objective gradient, constraints, constraint Jacobian and Lagrangian Hessian, for the
 //! fast structured derivative path (default) and the num-dual oracle for comparison; and
 //! the structured model pieces alone (`pieces_x100`), to tell their cost from the
-//! assembly's around them.
+//! assembly's around them; and the Jacobian plus Hessian of every other transcription of
+//! Table I in both modes (`schemes`), so the integrator table compares integrators and not
+//! derivative code.
 
 use bench::oval_nlp_at_reference;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -139,5 +141,43 @@ fn pieces(c: &mut Criterion) {
 #[cfg(not(target_arch = "x86_64"))]
 fn pieces(_: &mut Criterion) {}
 
-criterion_group!(benches, eval, pieces);
+/// Jacobian plus Lagrangian Hessian of each transcription at the oval's reference
+/// trajectory (stage states on the chords), hand-written jets against the num-dual oracle.
+fn schemes(c: &mut Criterion) {
+    use planner::ocp::{
+        CrankNicolson, DefectScheme, ExplicitRk2, GaussLegendre2, GaussLegendre3, LinearMultistep,
+        Transcription,
+    };
+    fn one<S: DefectScheme>(c: &mut Criterion, scheme: S) {
+        let (ie, z_ie) = oval_nlp_at_reference();
+        let (xs, us) = ie.trajectory_from(&z_ie);
+        let mut nlp =
+            Transcription::<S, 100>::with_scheme(ie.spec().clone(), scheme).expect("N = 100");
+        nlp.set_initial_guess(&xs, &us);
+        let d = nlp.dims();
+        let mut z = vec![0.0; d.n];
+        nlp.initial_point(&mut z);
+        let (mut jac, mut hess) = (vec![0.0; d.nnz_jac], vec![0.0; d.nnz_hess]);
+        let lambda: Vec<f64> = (0..d.m).map(|i| ((i % 7) as f64 - 3.0) * 0.1).collect();
+        let mut group = c.benchmark_group(format!("schemes/{}", nlp.scheme().name()));
+        for (mode, name) in [(Derivatives::Fast, "fast"), (Derivatives::Oracle, "oracle")] {
+            nlp.set_derivatives(mode);
+            group.bench_function(format!("jac_hess_{name}"), |b| {
+                b.iter(|| {
+                    nlp.eval_jac_g(black_box(&z), &mut jac);
+                    nlp.eval_hess(black_box(&z), 1.0, black_box(&lambda), &mut hess);
+                })
+            });
+        }
+        group.finish();
+    }
+    one(c, CrankNicolson);
+    one(c, LinearMultistep::BDF4);
+    one(c, LinearMultistep::ADAMS_MOULTON3);
+    one(c, GaussLegendre2);
+    one(c, GaussLegendre3);
+    one(c, ExplicitRk2);
+}
+
+criterion_group!(benches, eval, pieces, schemes);
 criterion_main!(benches);

@@ -10,8 +10,8 @@ use planner::model::ix;
 use planner::ocp::fixtures::oval_spec;
 use planner::ocp::scaling::X_NOMINAL;
 use planner::ocp::{
-    CrankNicolson, DefectScheme, ExplicitRk2, ExplicitRk4, GaussLegendre2, GaussLegendre3,
-    LinearMultistep, OcpSpec, Transcription,
+    CrankNicolson, DefectScheme, Derivatives, ExplicitRk2, ExplicitRk4, GaussLegendre2,
+    GaussLegendre3, LinearMultistep, OcpSpec, Transcription,
 };
 use std::collections::HashSet;
 
@@ -246,6 +246,54 @@ fn multistep_derivatives_match_fd() {
         LinearMultistep::ADAMS_MOULTON3,
     ] {
         check_all(scheme);
+    }
+}
+
+/// The hand-written per-point jets (the default) give the num-dual oracle's Jacobian and
+/// Hessian to rounding for every scheme that has them.
+fn fast_matches_oracle<S: DefectScheme + Copy>(scheme: S) {
+    for seed in [21u64, 22] {
+        let mut p = problem(scheme, seed);
+        let mut rng = Rng(seed * 31);
+        let lam: Vec<f64> = (0..p.m).map(|_| rng.range(-1.0, 1.0)).collect();
+        let z = p.z.clone();
+        let mut out = Vec::new();
+        for mode in [Derivatives::Fast, Derivatives::Oracle] {
+            p.nlp.set_derivatives(mode);
+            let (mut jac, mut hess) = (vec![0.0; p.jr.len()], vec![0.0; p.hr.len()]);
+            p.nlp.eval_jac_g(&z, &mut jac);
+            p.nlp.eval_hess(&z, 1.3, &lam, &mut hess);
+            out.push((jac, hess));
+        }
+        let name = p.nlp.scheme().name();
+        for (what, a, b) in [
+            ("jac", &out[0].0, &out[1].0),
+            ("hess", &out[0].1, &out[1].1),
+        ] {
+            let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let worst = a
+                .iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs() / (y.abs() + 1e-6 * scale))
+                .fold(0.0f64, f64::max);
+            println!("{name} {what}: worst relative difference {worst:.2e}");
+            assert!(worst < 1e-8, "{name} {what}: {worst:e}");
+            assert!(a.iter().any(|&v| v != 0.0), "{name} {what} all zero");
+        }
+    }
+}
+
+#[test]
+fn hand_written_derivatives_equal_the_oracle_for_every_implicit_scheme() {
+    fast_matches_oracle(CrankNicolson);
+    fast_matches_oracle(GaussLegendre2);
+    fast_matches_oracle(GaussLegendre3);
+    for scheme in [
+        LinearMultistep::BDF4,
+        LinearMultistep::BDF6,
+        LinearMultistep::ADAMS_MOULTON3,
+    ] {
+        fast_matches_oracle(scheme);
     }
 }
 

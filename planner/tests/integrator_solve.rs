@@ -1,9 +1,10 @@
 //! The oval (N = 100) solved end to end through `planner::ip::Solver` with each new
 //! transcription from the equilibrium guess; prints status, iterations and t_N.
 //!
-//! Derivatives come from the num-dual oracle (slower than implicit Euler's fast path), so
-//! the wall-clock cap of the solver file (`solver_min_time.toml`: the study's pure minimum
-//! time) is raised to 120 s; the iteration cap is unchanged.
+//! Explicit RK's derivatives come from the num-dual oracle and the collocation and
+//! multistep schemes factorize with the sparse backend, so the wall-clock cap of the solver
+//! file (`solver_min_time.toml`: the study's pure minimum time) is raised to 120 s; the
+//! iteration cap is unchanged.
 
 use std::path::Path;
 use std::time::Instant;

@@ -34,7 +34,7 @@ use crate::stats::median;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Integrator {
-    /// Implicit Euler (order 1, A-stable; fast hand-written derivatives).
+    /// Implicit Euler (order 1, A-stable).
     ImplicitEuler,
     /// BDF4 (order 4, A(73 deg)-stable).
     Bdf4,
@@ -115,13 +115,14 @@ impl Integrator {
         }
     }
 
-    /// The derivative code of the scheme's defect rows: the hand-written stage derivatives
-    /// of [`crate::ocp::fast`] (implicit Euler) or forward-mode dual numbers (`num-dual`,
-    /// exact to rounding, but evaluated per entry) for every other scheme.
+    /// The derivative code of the scheme's defect rows: the hand-written jets of f at each
+    /// point of [`crate::ocp::fast`] for every scheme whose defect is linear in f at fixed
+    /// points, forward-mode dual numbers (`num-dual`, exact to rounding, evaluated over
+    /// all the interval's variables) for explicit RK, which nests f inside f.
     pub fn derivatives(self) -> &'static str {
         match self {
-            Integrator::ImplicitEuler => "hand-written",
-            _ => "num-dual",
+            Integrator::Rk2 | Integrator::Rk4 => "num-dual",
+            _ => "hand-written",
         }
     }
 

@@ -6,10 +6,13 @@
 //! (1 - c) kappa_k + c kappa_{k+1}, i.e. kappa_k / kappa_mid / kappa_{k+1} at the RK
 //! nodes c = 0, 1/2, 1. (The road data is thus second-order accurate between nodes, which
 //! caps RK4's global accuracy on curvature transitions, but never makes it inconsistent.)
-//! Exact derivatives by the num-dual oracle. Neither scheme is A-stable: on the stiff
+//! Exact derivatives by the num-dual oracle: the stages nest f inside f, so the rows are
+//! not linear in f at fixed points and the per-point jets of the implicit schemes do not
+//! apply (their Hessian would need every component's second derivatives). Neither scheme is A-stable: on the stiff
 //! vehicle dynamics they need small steps (paper Sec. IV).
 
 use super::one_step::{one_step_scheme, Rule, NL_EXPLICIT};
+use super::point_form::PointForm;
 
 /// Explicit midpoint RK2 defect scheme (no stage variables, NX rows per interval).
 #[derive(Debug, Clone, Copy, Default)]
@@ -19,5 +22,17 @@ pub struct ExplicitRk2;
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ExplicitRk4;
 
-one_step_scheme!(ExplicitRk2, Rule::Rk2, "rk2", NL_EXPLICIT);
-one_step_scheme!(ExplicitRk4, Rule::Rk4, "rk4", NL_EXPLICIT);
+one_step_scheme!(
+    ExplicitRk2,
+    Rule::Rk2,
+    "rk2",
+    NL_EXPLICIT,
+    None::<&PointForm<2>>
+);
+one_step_scheme!(
+    ExplicitRk4,
+    Rule::Rk4,
+    "rk4",
+    NL_EXPLICIT,
+    None::<&PointForm<2>>
+);

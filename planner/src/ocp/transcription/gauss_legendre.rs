@@ -7,10 +7,12 @@
 //! [`steps::gauss_legendre2`]: the collocation rows X_j - x_k - ds sum_l A_jl f(X_l) for
 //! j = 1, 2, then the continuity row x_{k+1} - x_k - ds sum_l b_l f(X_l). u_k is held and
 //! k_ref is linearly interpolated to the stage positions s_k + c_j ds.
-//! Exact derivatives by the num-dual oracle.
+//! Exact derivatives from the per-point jets of f at the stage states
+//! ([`super::point_form`]); the num-dual oracle stays for checks.
 
 use super::dense::{self, LocalResidual};
 use super::one_step::kappa_at;
+use super::point_form::PointForm;
 use super::{steps, DefectScheme, SchemeContext};
 use crate::model::{spatial_derivatives, NU, NX};
 use crate::ocp::layout::Layout;
@@ -27,6 +29,36 @@ const W: usize = 2 * NX + NU;
 const NL: [usize; 17] = [
     9, 10, 11, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 36,
 ];
+
+/// The 2-stage rows as a point form: f at the two stage states.
+const FORM2: PointForm<2> = PointForm {
+    point_off: [W, W + NX],
+    c: steps::GL2_C,
+    lin: &[
+        [(W, 1.0), (0, -1.0)],
+        [(W + NX, 1.0), (0, -1.0)],
+        [(X1, 1.0), (0, -1.0)],
+    ],
+    w: &[steps::GL2_A[0], steps::GL2_A[1], steps::GL2_B],
+};
+
+/// The 3-stage rows as a point form: f at the three stage states.
+const FORM3: PointForm<3> = PointForm {
+    point_off: [W, W + NX, W + 2 * NX],
+    c: steps::GL3_C,
+    lin: &[
+        [(W, 1.0), (0, -1.0)],
+        [(W + NX, 1.0), (0, -1.0)],
+        [(W + 2 * NX, 1.0), (0, -1.0)],
+        [(X1, 1.0), (0, -1.0)],
+    ],
+    w: &[
+        steps::GL3_A[0],
+        steps::GL3_A[1],
+        steps::GL3_A[2],
+        steps::GL3_B,
+    ],
+};
 
 /// Names of the 27 defect rows.
 const ROW_NAMES: [&str; 3 * NX] = [
@@ -120,7 +152,10 @@ impl DefectScheme for GaussLegendre2 {
     }
 
     fn jac(&self, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
-        dense::jac(self, cx, k, z, vals)
+        if cx.oracle {
+            return dense::jac(self, cx, k, z, vals);
+        }
+        FORM2.jac(cx, k, z, &self.cols(&cx.layout, k), vals)
     }
 
     fn hess_pattern(&self, lay: &Layout, k: usize, push: &mut dyn FnMut(usize, usize)) {
@@ -128,7 +163,10 @@ impl DefectScheme for GaussLegendre2 {
     }
 
     fn hess(&self, cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
-        dense::hess(self, cx, k, z, &NL, lambda, vals)
+        if cx.oracle {
+            return dense::hess(self, cx, k, z, &NL, lambda, vals);
+        }
+        FORM2.hess(cx, k, z, &self.cols(&cx.layout, k), &NL, lambda, vals)
     }
 
     /// Stage states on the straight line between the nodes: X_j = x_k + c_j (x_{k+1} - x_k).
@@ -195,8 +233,8 @@ const ROW_NAMES3: [&str; 4 * NX] = [
 /// (Sec. IV). The three stage states of every interval are decision variables of the NLP
 /// (STAGE_VARS = 3 NX, stored in w_k as [X_1, X_2, X_3], scaled like the states; no inner
 /// Newton loop); 4 NX rows per interval, see [`steps::gauss_legendre3`]. u_k is held and
-/// k_ref is linearly interpolated to the stage positions s_k + c_j ds. Exact derivatives by
-/// the num-dual oracle.
+/// k_ref is linearly interpolated to the stage positions s_k + c_j ds. Exact derivatives
+/// from the per-point jets at the stage states.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct GaussLegendre3;
 
@@ -258,7 +296,10 @@ impl DefectScheme for GaussLegendre3 {
     }
 
     fn jac(&self, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
-        dense::jac(self, cx, k, z, vals)
+        if cx.oracle {
+            return dense::jac(self, cx, k, z, vals);
+        }
+        FORM3.jac(cx, k, z, &self.cols(&cx.layout, k), vals)
     }
 
     fn hess_pattern(&self, lay: &Layout, k: usize, push: &mut dyn FnMut(usize, usize)) {
@@ -266,7 +307,10 @@ impl DefectScheme for GaussLegendre3 {
     }
 
     fn hess(&self, cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
-        dense::hess(self, cx, k, z, &NL3, lambda, vals)
+        if cx.oracle {
+            return dense::hess(self, cx, k, z, &NL3, lambda, vals);
+        }
+        FORM3.hess(cx, k, z, &self.cols(&cx.layout, k), &NL3, lambda, vals)
     }
 
     /// Stage states on the straight line between the nodes: X_j = x_k + c_j (x_{k+1} - x_k).

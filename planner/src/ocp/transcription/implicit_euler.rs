@@ -2,6 +2,7 @@
 //! x_{k+1} - x_k - ds f(x_{k+1}, u_k; k_ref(s_{k+1})) = 0, each row divided by the nominal of
 //! its state.
 
+use super::point_jets::{IN_NOMINAL, NIN, NXIN};
 use super::{DefectScheme, SchemeContext};
 use crate::model::{ix, spatial_derivatives, time_derivatives, NU, NX, STATE_NAMES};
 use crate::ocp::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
@@ -9,12 +10,6 @@ use crate::ocp::fast;
 use crate::ocp::layout::Layout;
 use crate::ocp::scaling::{U_NOMINAL, X_NOMINAL};
 use num_dual::DualNum;
-
-/// Inputs of f: the 7 dynamic/kinematic states r..dpsi of x_{k+1} and the 3 controls u_k
-/// (f does not depend on s or t).
-const NIN: usize = 10;
-/// States among the inputs of f.
-const NXIN: usize = 7;
 
 /// Implicit Euler defect scheme (no stage variables, NX rows per interval).
 #[derive(Debug, Clone, Copy, Default)]
@@ -131,20 +126,6 @@ impl DefectScheme for ImplicitEuler {
             .write_lower(&IN_NOMINAL, vals);
     }
 }
-
-/// Nominal of each input of f (scaled z = physical / nominal).
-const IN_NOMINAL: [f64; NIN] = [
-    X_NOMINAL[0],
-    X_NOMINAL[1],
-    X_NOMINAL[2],
-    X_NOMINAL[3],
-    X_NOMINAL[4],
-    X_NOMINAL[5],
-    X_NOMINAL[6],
-    U_NOMINAL[0],
-    U_NOMINAL[1],
-    U_NOMINAL[2],
-];
 
 /// Defect Jacobian of interval k by num-dual first-order duals through the generic model
 /// (the oracle).

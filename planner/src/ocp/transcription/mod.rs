@@ -11,12 +11,15 @@
 //! of [`crate::ocp::path_constraints`]. A [`DefectScheme`] supplies only the dynamics defect
 //! rows of each interval (plus, for collocation schemes, its stage variables), so other
 //! integrators (RK2/4, BDF, Crank-Nicolson, Gauss-Legendre) plug in without touching the
-//! model, the shared constraints or the solver. [`ImplicitEuler`] has hand-written fast
-//! derivatives; [`CrankNicolson`], [`ExplicitRk2`], [`ExplicitRk4`]
-//! and [`GaussLegendre2`] / [`GaussLegendre3`] (stage states as NLP variables) share the
-//! formulas of [`steps`] and take exact derivatives from the num-dual oracle; the
-//! multistep schemes BDF4-6 and Adams-Moulton ([`LinearMultistep`]) reference the earlier
-//! nodes x_{k-q+1}..x_k in their defect on interval k.
+//! model, the shared constraints or the solver. [`CrankNicolson`], [`ExplicitRk2`],
+//! [`ExplicitRk4`] and [`GaussLegendre2`] / [`GaussLegendre3`] (stage states as NLP
+//! variables) share the formulas of [`steps`]; the multistep schemes BDF4-6 and
+//! Adams-Moulton ([`LinearMultistep`]) reference the earlier nodes x_{k-q+1}..x_k in their
+//! defect on interval k. Every scheme whose defect is linear in the states and in f at
+//! points of the interval (implicit Euler, Crank-Nicolson, multistep, Gauss-Legendre) takes
+//! its exact derivatives from the hand-written jets of f at each point (`point_jets`,
+//! `point_form`); explicit RK, which nests f inside f, from the num-dual oracle, which also
+//! checks all the others ([`Derivatives::Oracle`]).
 //!
 //! The rows are ordered stage by stage: first the initial-condition rows, then for each
 //! interval k = 0..N-1: the scheme's defect rows, the two front friction rows (R9), the two
@@ -43,6 +46,8 @@ pub mod multistep;
 mod nlp;
 mod one_step;
 mod packing;
+mod point_form;
+mod point_jets;
 mod rows;
 mod scheme;
 mod sparsity;

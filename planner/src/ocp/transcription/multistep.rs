@@ -31,11 +31,13 @@
 //! multistep formula reaches its nominal order on the OCP anyway (the paper's accuracy
 //! observation for BDF4-6 / AM).
 //!
-//! Exact derivatives by num-dual: the defect is a linear combination of the linear past
-//! state terms and of f at each node of the window, and each f(x_n, u_k) depends on the
-//! 10 inputs (r..dpsi of x_n, u_k) only, so the Jacobian and Hessian are assembled from
-//! per-node dual evaluations over 10 variables (no dense window-wide duals).
+//! Exact derivatives: the defect is a linear combination of the linear past state terms
+//! and of f at each node of the window, and each f(x_n, u_k) depends on the 10 inputs
+//! (r..dpsi of x_n, u_k) only, so the Jacobian and Hessian are assembled from per-node
+//! jets over 10 variables: the hand-written ones of [`super::point_jets`] (the same as
+//! implicit Euler's), or num-dual duals under [`super::Derivatives::Oracle`].
 
+use super::point_jets::{physical, scaled_gradient, weighted_hessian, IN_NOMINAL, NIN, NXIN};
 use super::steps::{MultistepFormula, ADAMS_MOULTON, BDF};
 use super::{DefectScheme, SchemeContext};
 use crate::model::{spatial_derivatives, NU, NX, STATE_NAMES};
@@ -44,10 +46,6 @@ use crate::ocp::layout::Layout;
 use crate::ocp::scaling::{U_NOMINAL, X_NOMINAL};
 use num_dual::{Dual2SVec64, DualNum};
 
-/// Inputs of f at one node: r..dpsi of the node's state (f reads neither s nor t) and u_k.
-const NIN: usize = 10;
-/// States among the inputs.
-const NXIN: usize = 7;
 /// Lower-triangle entries of one node's Hessian block.
 const NHESS: usize = NIN * (NIN + 1) / 2;
 /// Most nodes a window can hold (BDF6: 7).
@@ -149,6 +147,16 @@ fn scaled_f<D: DualNum<Primitive = f64> + Copy>(
     std::array::from_fn(|i| f[i] / X_NOMINAL[i])
 }
 
+/// Gradient of the scaled f_i(x_n, u_k; kappa_n) / nominal_i over the 10 scaled inputs.
+fn node_gradient(cx: &SchemeContext, k: usize, n: usize, z: &[f64]) -> [[f64; NIN]; NX] {
+    if cx.oracle {
+        let f = scaled_f(cx, k, n, z, seed1::<NIN>);
+        return std::array::from_fn(|i| grad(&f[i]));
+    }
+    let (x, u) = physical(cx, k, z, |i| cx.layout.x(n, i));
+    scaled_gradient(cx, &x, &u, cx.kappa[n])
+}
+
 /// One Jacobian entry of row i: which term produces its value.
 #[derive(Debug, Clone, Copy)]
 enum Entry {
@@ -223,10 +231,7 @@ impl DefectScheme for LinearMultistep {
         let mut g = [[[0.0; NIN]; NX]; MAX_NODES];
         for j in 0..=m.steps {
             if m.b[j] != 0.0 {
-                let f = scaled_f(cx, k, k + 1 - j, z, seed1::<NIN>);
-                for i in 0..NX {
-                    g[j][i] = grad(&f[i]);
-                }
+                g[j] = node_gradient(cx, k, k + 1 - j, z);
             }
         }
         let mut p = 0;
@@ -268,7 +273,15 @@ impl DefectScheme for LinearMultistep {
         let m = self.formula(k);
         let mut off = 0;
         for j in 0..=m.steps {
-            if m.b[j] != 0.0 {
+            if m.b[j] != 0.0 && !cx.oracle {
+                let n = k + 1 - j;
+                let (x, u) = physical(cx, k, z, |i| cx.layout.x(n, i));
+                let w: [f64; NX] =
+                    std::array::from_fn(|i| -cx.ds * m.b[j] * lambda[i] / X_NOMINAL[i]);
+                weighted_hessian(cx, &x, &u, cx.kappa[n], &w)
+                    .write_lower(&IN_NOMINAL, &mut vals[off..off + NHESS]);
+                off += NHESS;
+            } else if m.b[j] != 0.0 {
                 let f = scaled_f(cx, k, k + 1 - j, z, seed2::<NIN>);
                 let mut acc = Dual2SVec64::<NIN>::from_re(0.0);
                 for i in 0..NX {

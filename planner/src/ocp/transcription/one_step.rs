@@ -1,9 +1,13 @@
 //! Shared plumbing of the single-step schemes without stage variables (Crank-Nicolson,
 //! explicit RK2 / RK4): the 21 local variables (x_k, u_k, x_{k+1}), the model as the ODE
 //! right-hand side with u_k held over the interval and k_ref linearly interpolated between
-//! the nodes, and the [`DefectScheme`](super::DefectScheme) implementation via the num-dual
-//! oracle of [`super::dense`].
+//! the nodes, and the [`DefectScheme`](super::DefectScheme) implementation: values and
+//! patterns from [`super::dense`], derivatives from a [`PointForm`] where the scheme has one
+//! (Crank-Nicolson) and from the num-dual oracle otherwise (explicit RK nests f inside f,
+//! so its rows are not linear in f at fixed points).
 
+use super::dense::{self, LocalResidual};
+use super::point_form::PointForm;
 use super::{steps, SchemeContext};
 use crate::model::{spatial_derivatives, NU, NX};
 use crate::ocp::layout::Layout;
@@ -67,6 +71,37 @@ pub(crate) fn residual<D: DualNum<Primitive = f64> + Copy>(
     }
 }
 
+/// Jacobian values of interval k: from `form` unless the oracle is asked for.
+pub(crate) fn jac<R: LocalResidual<M>>(
+    r: &R,
+    form: Option<&PointForm<2>>,
+    cx: &SchemeContext,
+    k: usize,
+    z: &[f64],
+    vals: &mut [f64],
+) {
+    match form {
+        Some(f) if !cx.oracle => f.jac(cx, k, z, &cols(&cx.layout, k), vals),
+        _ => dense::jac(r, cx, k, z, vals),
+    }
+}
+
+/// Hessian values of `lambda^T defect_k` over the nonlinear local variables `nl`: from
+/// `form` unless the oracle is asked for.
+pub(crate) fn hess<R: LocalResidual<M>, const L: usize>(
+    r: &R,
+    form: Option<&PointForm<2>>,
+    cx: &SchemeContext,
+    (k, z, nl): (usize, &[f64], &[usize; L]),
+    lambda: &[f64],
+    vals: &mut [f64],
+) {
+    match form {
+        Some(f) if !cx.oracle => f.hess(cx, k, z, &cols(&cx.layout, k), nl, lambda, vals),
+        _ => dense::hess(r, cx, k, z, nl, lambda, vals),
+    }
+}
+
 /// Local indices of r..dpsi of x_k (the states f reads) and of u_k.
 pub(crate) const NL_EXPLICIT: [usize; 10] = [0, 1, 2, 3, 4, 5, 6, 9, 10, 11];
 /// [`NL_EXPLICIT`] plus r..dpsi of x_{k+1} (implicit schemes evaluate f there too).
@@ -74,9 +109,9 @@ pub(crate) const NL_IMPLICIT: [usize; 17] =
     [0, 1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18];
 
 /// Implements [`DefectScheme`](super::DefectScheme) and the oracle residual for a unit
-/// struct of a single-step scheme.
+/// struct of a single-step scheme; `$form` is its `Option<&PointForm<2>>`.
 macro_rules! one_step_scheme {
-    ($ty:ty, $rule:expr, $name:expr, $nl:expr) => {
+    ($ty:ty, $rule:expr, $name:expr, $nl:expr, $form:expr) => {
         impl
             $crate::ocp::transcription::dense::LocalResidual<
                 { $crate::ocp::transcription::one_step::M },
@@ -134,7 +169,7 @@ macro_rules! one_step_scheme {
                 z: &[f64],
                 vals: &mut [f64],
             ) {
-                $crate::ocp::transcription::dense::jac(self, cx, k, z, vals)
+                $crate::ocp::transcription::one_step::jac(self, $form, cx, k, z, vals)
             }
             fn hess_pattern(
                 &self,
@@ -152,7 +187,14 @@ macro_rules! one_step_scheme {
                 lambda: &[f64],
                 vals: &mut [f64],
             ) {
-                $crate::ocp::transcription::dense::hess(self, cx, k, z, &$nl, lambda, vals)
+                $crate::ocp::transcription::one_step::hess(
+                    self,
+                    $form,
+                    cx,
+                    (k, z, &$nl),
+                    lambda,
+                    vals,
+                )
             }
         }
     };

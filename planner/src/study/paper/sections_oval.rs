@@ -167,15 +167,15 @@ pub(super) fn integrators(
     }
     let _ = writeln!(
         s,
-        "\nThe times compare derivative code and KKT backends as much as integrators: only \
-         implicit Euler has hand-written stage derivatives; every other scheme is \
-         differentiated by `num-dual` per entry, and the schemes that couple more than two \
-         nodes or carry stage variables (BDF, Adams-Moulton, Gauss-Legendre) are factorized by \
-         the sparse LDL^T instead of the Riccati recursion (the backend column). Time per \
-         iteration compares rows with the same backend and derivative code; across them it \
-         measures the code, not the integrator. Not done: the multi-step and Crank-Nicolson \
-         defects are linear combinations of x and f at the nodes and could reuse the \
-         implicit-Euler stage derivatives.\n"
+        "\nEvery scheme whose defect is linear in the states and in f at fixed points \
+         (implicit Euler, BDF, Adams-Moulton, Crank-Nicolson, Gauss-Legendre) takes its exact \
+         derivatives from the same hand-written jets of f at each point; explicit RK2 / RK4 \
+         nest f inside f and keep `num-dual` (the derivatives column). The schemes that \
+         couple more than two nodes or carry stage variables (BDF, Adams-Moulton, \
+         Gauss-Legendre) are factorized by the sparse LDL^T instead of the Riccati recursion \
+         (the backend column): that cost follows from the integrator's coupling and is part \
+         of its price. The `schemes` group of `bench/benches/eval.rs` times one Jacobian plus \
+         Hessian of each scheme with both derivative codes side by side.\n"
     );
     let _ = writeln!(
         s,

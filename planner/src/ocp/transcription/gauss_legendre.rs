@@ -166,7 +166,7 @@ impl DefectScheme for GaussLegendre2 {
         if cx.oracle {
             return dense::hess(self, cx, k, z, &NL, lambda, vals);
         }
-        FORM2.hess(cx, k, z, &self.cols(&cx.layout, k), &NL, lambda, vals)
+        FORM2.hess(cx, (k, z), (&self.cols(&cx.layout, k), &NL), lambda, vals)
     }
 
     /// Stage states on the straight line between the nodes: X_j = x_k + c_j (x_{k+1} - x_k).
@@ -310,7 +310,7 @@ impl DefectScheme for GaussLegendre3 {
         if cx.oracle {
             return dense::hess(self, cx, k, z, &NL3, lambda, vals);
         }
-        FORM3.hess(cx, k, z, &self.cols(&cx.layout, k), &NL3, lambda, vals)
+        FORM3.hess(cx, (k, z), (&self.cols(&cx.layout, k), &NL3), lambda, vals)
     }
 
     /// Stage states on the straight line between the nodes: X_j = x_k + c_j (x_{k+1} - x_k).

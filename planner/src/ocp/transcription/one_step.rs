@@ -97,7 +97,7 @@ pub(crate) fn hess<R: LocalResidual<M>, const L: usize>(
     vals: &mut [f64],
 ) {
     match form {
-        Some(f) if !cx.oracle => f.hess(cx, k, z, &cols(&cx.layout, k), nl, lambda, vals),
+        Some(f) if !cx.oracle => f.hess(cx, (k, z), (&cols(&cx.layout, k), nl), lambda, vals),
         _ => dense::hess(r, cx, k, z, nl, lambda, vals),
     }
 }

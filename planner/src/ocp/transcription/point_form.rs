@@ -82,14 +82,12 @@ impl<const P: usize> PointForm<P> {
     }
 
     /// Dense lower-triangle Hessian of `lambda^T defect` over the nonlinear local variables
-    /// `nl` (indices into the local variables, in pattern order).
+    /// `nl` (indices into the local variables `cols`, in pattern order).
     pub fn hess(
         &self,
         cx: &SchemeContext,
-        k: usize,
-        z: &[f64],
-        cols: &[usize],
-        nl: &[usize],
+        (k, z): (usize, &[f64]),
+        (cols, nl): (&[usize], &[usize]),
         lambda: &[f64],
         vals: &mut [f64],
     ) {

@@ -23,7 +23,7 @@ use plan_record::now_ns;
 use planner::guess::GuessKind;
 use planner::ip::{SolveInfo, Status};
 use planner::model::{ix, NU, NX};
-use planner::plan::{Planner, ReplanGuess, WarmOptions};
+use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 
 use crate::clock::monotonic_ns;
 use crate::elog;
@@ -37,7 +37,7 @@ pub mod budget;
 pub mod publish_policy;
 mod record;
 mod send;
-pub use record::CycleRecorder;
+pub use record::{CycleRecorder, WarmRecord};
 
 /// Distance over which the lane margin ramps in from the lane edge \[m\].
 pub const MARGIN_RAMP_M: f64 = 20.0;
@@ -91,8 +91,7 @@ pub struct PlannerArgs {
     #[arg(long, default_value = "equilibrium", value_parser = ["equilibrium", "road_speed"])]
     pub cold_guess: String,
     /// Warm-start from the previous plan shifted in s, primal and dual, with a barrier
-    /// parameter matched to the shifted point (`Planner::replan_warm`; off by default:
-    /// warm-started plans are not recorded, see docs/solver.md).
+    /// parameter matched to the shifted point (`Planner::replan_warm`, docs/solver.md).
     #[arg(long, default_value = "off", value_parser = ["on", "off"])]
     pub warm_start: String,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
@@ -101,11 +100,11 @@ pub struct PlannerArgs {
     /// Stop after this many seconds (0: run until stopped).
     #[arg(long, default_value_t = 0.0)]
     pub max_runtime_s: f64,
-    /// Record every equilibrium-started plan's input and output to this MCAP file (copied
-    /// into a preallocated slot after the plan is published, outside the timed solve; one
-    /// MCAP chunk per plan, so a killed planner loses at most the plan being written;
-    /// `replay run` re-solves them). Warm-started plans are counted, not recorded (a
-    /// recording cannot hold the guess).
+    /// Record every plan's input and output to this MCAP file (copied into a preallocated
+    /// slot after the plan is published, outside the timed solve; one MCAP chunk per plan,
+    /// so a killed planner loses at most the plan being written; `replay run` re-solves
+    /// them). A warm-started plan also records its shifted guess and multipliers, so it
+    /// replays on its own.
     #[arg(long)]
     pub record: Option<PathBuf>,
 }
@@ -212,29 +211,26 @@ fn interp(xs: &[[f64; NX]], ds: f64, s: f64) -> [f64; NX] {
 }
 
 impl Cycle {
-    /// Builds the guess from the previous solution shifted by `shift` metres (allocates nothing).
+    /// Builds the guess from the previous solution shifted by `shift` metres
+    /// ([`shift_plan`]; allocates nothing).
     fn shifted_guess(&mut self, shift: f64, x0: &[f64; NX], ds: f64) {
-        let xs = self.planner.states();
-        let us = self.planner.controls();
-        let t_shift = interp(xs, ds, shift)[ix::T];
-        for k in 0..=HORIZON_N {
-            let s = k as f64 * ds;
-            let mut x = interp(xs, ds, s + shift);
-            x[ix::S] = s;
-            x[ix::T] = if s + shift <= HORIZON_N as f64 * ds {
-                x[ix::T] - t_shift
-            } else {
-                // Beyond the old horizon: extend at the last node's pace.
-                let last = &xs[HORIZON_N];
-                last[ix::T] - t_shift + (s + shift - HORIZON_N as f64 * ds) / last[ix::V].max(1.0)
-            };
-            self.guess_x[k] = x;
-        }
-        self.guess_x[0] = *x0;
-        for k in 0..HORIZON_N {
-            let j = (((k as f64 * ds + shift) / ds).floor() as usize).min(HORIZON_N - 1);
-            self.guess_u[k] = us[j];
-        }
+        shift_plan(
+            self.planner.states(),
+            self.planner.controls(),
+            ds,
+            shift,
+            x0,
+            &mut self.guess_x,
+            &mut self.guess_u,
+        );
+    }
+}
+
+/// The options of a warm-started replan falling back to `cold`.
+fn warm_options(cold: GuessKind) -> WarmOptions {
+    WarmOptions {
+        cold,
+        ..WarmOptions::default()
     }
 }
 
@@ -288,7 +284,11 @@ impl Ports {
 /// [`Planner::controls`]).
 struct Solved {
     info: Option<SolveInfo>,
+    /// The plan comes from the warm solve (not from its fall-back).
     warm_started: bool,
+    /// The shift of the warm start when the cycle took the warm path (with or without a
+    /// fall-back): the planner's warm buffers and `Cycle::guess_x` hold where it started.
+    warm_shift: Option<f64>,
     /// The start state as planned from (re-referenced and nudged into the bounds).
     x0: [f64; NX],
     /// Track s of the measured state: the plan's origin.
@@ -371,17 +371,23 @@ impl PlannerLoop {
         settings.max_time_s = budget_ms * 1e-3;
         let ds = sc.ds();
         let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
-        let recorder = match &args.record {
-            Some(path) => Some(
-                CycleRecorder::create(path, &sc.spec, &settings, cold_guess).map_err(|e| {
-                    PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
-                })?,
-            ),
-            None => None,
-        };
+        let recorded_settings = settings;
         settings.max_time_s = first_budget_ms * 1e-3;
         let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
+        let dims = (
+            planner.solver().workspace().n,
+            planner.solver().workspace().m,
+        );
+        let recorder = match &args.record {
+            Some(path) => Some(
+                CycleRecorder::create(path, &sc.spec, &recorded_settings, cold_guess, dims)
+                    .map_err(|e| {
+                        PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
+                    })?,
+            ),
+            None => None,
+        };
         let cy = Cycle {
             planner,
             road: RoadWindow::default(),
@@ -459,7 +465,8 @@ impl PlannerLoop {
         let t0 = Instant::now();
         let s_track = state.x[ix::S];
         let x0 = self.start_state(state)?;
-        let (info, warm_started) = match self.solve(state, x0, s_track) {
+        let mut warm_shift = None;
+        let (info, warm_started) = match self.solve(state, x0, s_track, &mut warm_shift) {
             Some((info, warm)) => (Some(info), warm),
             None => (None, false),
         };
@@ -475,6 +482,7 @@ impl PlannerLoop {
         Some(Solved {
             info,
             warm_started,
+            warm_shift,
             x0,
             s_track,
             stamp_in,
@@ -531,13 +539,15 @@ impl PlannerLoop {
 
     /// Solves from `x0` over the sampled window: warm-started from the previous plan when
     /// that is sound and converges, else from the equilibrium. Returns the solve's outcome
-    /// and whether it was warm-started; `None` (logged, counted, marked as planned) when
-    /// the equilibrium-started replan fails.
+    /// and whether it was warm-started (`warm_shift` says whether the warm path ran);
+    /// `None` (logged, counted, marked as planned) when the equilibrium-started replan
+    /// fails.
     fn solve(
         &mut self,
         state: &VehicleState,
         x0: [f64; NX],
         s_track: f64,
+        warm_shift: &mut Option<f64>,
     ) -> Option<(SolveInfo, bool)> {
         let ds = self.ds;
         let cy = &mut self.cy;
@@ -558,11 +568,11 @@ impl PlannerLoop {
                 x0,
                 (&cy.guess_x, &cy.guess_u),
                 shift,
-                WarmOptions {
-                    cold: self.cold_guess,
-                    ..WarmOptions::default()
-                },
+                warm_options(self.cold_guess),
             );
+            if r.is_ok() {
+                *warm_shift = Some(shift);
+            }
             match r {
                 Ok(r) if r.fell_back => {
                     self.cold += 1;
@@ -594,26 +604,28 @@ impl PlannerLoop {
         }
     }
 
-    /// Records the plan just published (after publishing; copies into a preallocated slot).
+    /// Records the plan just published (after publishing; copies into a preallocated
+    /// slot), with where it started when it went through the warm path.
     fn record(&mut self, solved: &Solved) {
         let Some(info) = &solved.info else { return };
-        if let Some(rec) = &mut self.recorder {
-            if solved.warm_started {
-                rec.skip_warm_started();
-            } else {
-                let xs = self.cy.planner.states();
-                let us = self.cy.planner.controls();
-                rec.record(
-                    self.cycles,
-                    solved.stamp_in,
-                    &self.cy.road,
-                    solved.x0,
-                    info,
-                    xs,
-                    us,
-                );
-            }
-        }
+        let Some(rec) = &self.recorder else {
+            return;
+        };
+        let cy = &self.cy;
+        let warm = solved.warm_shift.map(|shift| WarmRecord {
+            shift,
+            opts: warm_options(self.cold_guess),
+            guess: (&cy.guess_x, &cy.guess_u),
+            duals: cy.planner.warm_duals(),
+        });
+        rec.record(
+            (self.cycles, solved.stamp_in),
+            &cy.road,
+            solved.x0,
+            info,
+            (cy.planner.states(), cy.planner.controls()),
+            warm,
+        );
     }
 
     /// Logs, in one line, the worst-case cycle time the caps allow on this machine
@@ -655,7 +667,6 @@ impl PlannerLoop {
         );
         let recording = match (self.recorder, &args.record) {
             (Some(rec), Some(path)) => {
-                let not_recorded = rec.not_recorded();
                 let stats = rec.finish().map_err(|e| {
                     PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
                 })?;
@@ -663,8 +674,8 @@ impl PlannerLoop {
                     "file": path.display().to_string(),
                     "inputs": stats.inputs,
                     "outputs": stats.outputs,
+                    "warm_starts": stats.warm_starts,
                     "dropped": stats.dropped,
-                    "warm_started_not_recorded": not_recorded,
                 })
             }
             _ => serde_json::Value::Null,

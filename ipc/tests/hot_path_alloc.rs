@@ -106,16 +106,18 @@ fn the_ipc_and_road_part_of_a_planner_cycle_allocates_nothing() {
     assert!(seen.count_total > 0);
 }
 
-/// The `--record` part of the cycle copies the road window, the start state and the plan
-/// into a preallocated slot and queues it: nothing is allocated on the planner's thread
-/// (the writer thread allocates as it encodes, which the counter, per thread, leaves out),
-/// and what reaches the file equals the records built the allocating way.
+/// The `--record` part of the cycle copies the road window, the start state, the plan and,
+/// for every other plan, a warm start (shifted guess and multipliers) into a preallocated
+/// slot and queues it: nothing is allocated on the planner's thread (the writer thread
+/// allocates as it encodes, which the counter, per thread, leaves out), and what reaches
+/// the file equals the records built the allocating way.
 #[test]
 fn recording_a_plan_in_the_cycle_allocates_nothing() {
-    use ipc::planner_proc::CycleRecorder;
+    use ipc::planner_proc::{CycleRecorder, WarmRecord};
     use planner::guess::GuessKind;
     use planner::ocp::InitialState;
     use planner::plan::Planner;
+    use planner::plan::WarmOptions;
     use planner::record::{plan_input, plan_output};
 
     let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
@@ -131,11 +133,13 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     let dir = std::env::temp_dir().join(format!("trajopt_alloc_record_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("cycle.mcap");
+    let ws = planner.solver().workspace();
     let rec = CycleRecorder::create(
         &file,
         &sc.spec,
         &sc.settings,
         planner::guess::GuessKind::Equilibrium,
+        (ws.n, ws.m),
     )
     .unwrap();
     let ds = sc.spec.ds();
@@ -144,7 +148,13 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     let cycle = |seq: u64, window: &mut RoadWindow, x0: &mut [f64; NX]| {
         sc.road.window(seq as f64, ds, 0.0, 10.0, window);
         x0[ix::E] = 1e-3 * seq as f64;
-        let queued = rec.record(seq, 1_000 + seq, window, *x0, &info, xs, us);
+        let warm = (seq % 2 == 1).then(|| WarmRecord {
+            shift: 2.5,
+            opts: WarmOptions::default(),
+            guess: (xs, us),
+            duals: planner.warm_duals(),
+        });
+        let queued = rec.record((seq, 1_000 + seq), window, *x0, &info, (xs, us), warm);
         // One plan per millisecond at most, so the writer keeps up and nothing is dropped.
         std::thread::sleep(Duration::from_millis(1));
         queued
@@ -161,7 +171,9 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     assert_eq!(measured.count_total, 0, "{measured:?}");
     let stats = rec.finish().unwrap();
     assert_eq!(stats.inputs, 5 + queued);
-    assert_eq!(stats.dropped, 2 * (100 - queued));
+    // 105 plans, 52 of them warm-started: 2 messages each, 3 for a warm one.
+    let messages = stats.inputs + stats.outputs + stats.warm_starts + stats.dropped;
+    assert_eq!(messages, 2 * 105 + 52, "{stats:?}");
     assert!(queued >= 50, "{queued} of 100 plans queued");
 
     let back = plan_record::Recording::read(&file).unwrap();
@@ -176,6 +188,13 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     assert_eq!(input, &fresh);
     let fresh = plan_output(104, output.stamp_ns, &info, xs, us);
     assert_eq!(output, &fresh);
+    let warm = back.warm_starts.last().expect("warm starts were recorded");
+    assert_eq!(warm.seq % 2, 1);
+    assert_eq!((warm.states.len(), warm.y.len()), (xs.len(), ws.m));
+    assert_eq!(
+        back.inputs.iter().filter(|i| i.guess == "warm").count(),
+        back.warm_starts.len()
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

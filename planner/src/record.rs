@@ -1,10 +1,11 @@
 //! Conversions between the planner's types and the flight-recorder records of
 //! [`plan_record`]: what a solve acted on ([`plan_input`]) and produced ([`plan_output`]),
-//! and back ([`problem_from`]) so a replay rebuilds the exact same problem.
+//! and back ([`problem_from`]) so a replay rebuilds the exact same problem; for a
+//! warm-started solve also where it started ([`write_warm`], back with [`warm_from`]).
 
 use plan_record::{
-    config_hash, PlanInput, PlanOutput, CONTROL_LEN, SETTINGS_FIELDS, SETTINGS_LEN, STATE_LEN,
-    VEHICLE_LEN,
+    config_hash, PlanInput, PlanOutput, PlanWarmStart, CONTROL_LEN, SETTINGS_FIELDS, SETTINGS_LEN,
+    STATE_LEN, VEHICLE_LEN, WARM_GUESS,
 };
 
 use crate::guess::GuessKind;
@@ -12,6 +13,7 @@ use crate::ip::kkt::KktBackendKind;
 use crate::ip::{BarrierRule, Globalization, Settings, SolveInfo};
 use crate::model::{VehicleParams, NU, NX};
 use crate::ocp::{InitialState, OcpSpec};
+use crate::plan::{WarmDuals, WarmOptions};
 
 const _: () = assert!(NX == STATE_LEN && NU == CONTROL_LEN);
 
@@ -36,6 +38,15 @@ pub enum RecordError {
         /// What is wrong.
         source: crate::ocp::SpecError,
     },
+}
+
+/// How a recorded solve started.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RecordedStart {
+    /// From a guess of its own.
+    Guess(GuessKind),
+    /// Warm-started: from the [`PlanWarmStart`] of the same seq.
+    Warm,
 }
 
 /// The vehicle as the recorded array (field order of `plan_record::VEHICLE_FIELDS`).
@@ -343,7 +354,7 @@ pub fn update_input(
 }
 
 /// Rebuilds the problem, settings and guess a recorded input describes, bit for bit.
-pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, GuessKind), RecordError> {
+pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, RecordedStart), RecordError> {
     let bad = |field: &'static str, problem: String| RecordError::Invalid {
         seq: input.seq,
         field,
@@ -360,12 +371,19 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, GuessKind),
         ));
     }
     let n = input.n_intervals as usize;
-    let guess = GuessKind::parse(&input.guess).ok_or_else(|| {
-        bad(
-            "guess",
-            format!("`{}` is not equilibrium or zero", input.guess),
-        )
-    })?;
+    let guess = if input.guess == WARM_GUESS {
+        RecordedStart::Warm
+    } else {
+        RecordedStart::Guess(GuessKind::parse(&input.guess).ok_or_else(|| {
+            bad(
+                "guess",
+                format!(
+                    "`{}` is not equilibrium, zero, road_speed or {WARM_GUESS}",
+                    input.guess
+                ),
+            )
+        })?)
+    };
     let settings =
         settings_from_array(&input.settings).map_err(|(i, p)| bad(SETTINGS_FIELDS[i], p))?;
     settings
@@ -394,4 +412,61 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, GuessKind),
         source,
     })?;
     Ok((spec, settings, guess))
+}
+
+/// Writes where a warm-started solve started into `out` in place: the shift, the options,
+/// the primal guess and the multipliers ([`crate::plan::Planner::warm_duals`]). Allocates
+/// nothing when `out` has the capacity (as [`PlanWarmStart::with_capacity`] gives it).
+pub fn write_warm(
+    out: &mut PlanWarmStart,
+    (seq, stamp_ns, shift_m): (u64, u64, f64),
+    opts: &WarmOptions,
+    (states, controls): (&[[f64; NX]], &[[f64; NU]]),
+    duals: WarmDuals<'_>,
+) {
+    out.seq = seq;
+    out.stamp_ns = stamp_ns;
+    out.shift_m = shift_m;
+    out.warm_max_iter = u64::try_from(opts.max_iter).unwrap_or(u64::MAX);
+    out.mu_floor = opts.mu_floor;
+    out.cold_guess.clear();
+    out.cold_guess.push_str(opts.cold.name());
+    out.states.clear();
+    out.states.extend_from_slice(states);
+    out.controls.clear();
+    out.controls.extend_from_slice(controls);
+    for (to, from) in [
+        (&mut out.y, duals.y),
+        (&mut out.zl, duals.zl),
+        (&mut out.zu, duals.zu),
+    ] {
+        to.clear();
+        to.extend_from_slice(from);
+    }
+}
+
+/// The options and multipliers a recorded warm start gives
+/// [`crate::plan::Planner::solve_warm_from`] (with its `states` and `controls`).
+pub fn warm_from(w: &PlanWarmStart) -> Result<(WarmOptions, WarmDuals<'_>), RecordError> {
+    let bad = |field: &'static str, problem: String| RecordError::Invalid {
+        seq: w.seq,
+        field,
+        problem,
+    };
+    let cold = GuessKind::parse(&w.cold_guess)
+        .ok_or_else(|| bad("cold_guess", format!("`{}` is not a guess", w.cold_guess)))?;
+    if !(w.mu_floor > 0.0 && w.mu_floor.is_finite()) {
+        return Err(bad("mu_floor", format!("{} is not positive", w.mu_floor)));
+    }
+    let opts = WarmOptions {
+        max_iter: usize::try_from(w.warm_max_iter).unwrap_or(usize::MAX),
+        mu_floor: w.mu_floor,
+        cold,
+    };
+    let duals = WarmDuals {
+        y: &w.y,
+        zl: &w.zl,
+        zu: &w.zu,
+    };
+    Ok((opts, duals))
 }

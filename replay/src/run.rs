@@ -8,7 +8,7 @@ use plan_record::{first_difference, PlanOutput, Recording};
 use planner::guess::GuessKind;
 use planner::plan::choice::PlanKind;
 use planner::plan::Planner;
-use planner::record::{plan_output, problem_from};
+use planner::record::{plan_output, problem_from, warm_from, RecordedStart};
 use serde::Serialize;
 
 use crate::budget::{comparable, hit_cap, Budgets, SentCounts, SentPlans};
@@ -85,6 +85,15 @@ pub enum ReplayError {
         /// "inputs" or "outputs".
         what: &'static str,
         /// The seq.
+        seq: u64,
+    },
+    /// A warm-started input has no recorded warm start.
+    #[error(
+        "recorded input {seq} was warm-started, but the recording holds no warm start \
+         (/planner/warm_start message) with that seq"
+    )]
+    MissingWarmStart {
+        /// Input seq.
         seq: u64,
     },
     /// The iteration budget is out of range.
@@ -262,8 +271,8 @@ fn replay_all(
     planner::progress::begin(rec.inputs.len() as u64, "replay");
     let mut sent = SentPlans::default();
     for input in &rec.inputs {
-        let (spec, recorded_settings, recorded_guess) = problem_from(input)?;
-        let guess = opts.guess.unwrap_or(recorded_guess);
+        let (spec, recorded_settings, recorded_start) = problem_from(input)?;
+        let start = opts.guess.map_or(recorded_start, RecordedStart::Guess);
         let settings = opts.budgets.apply(recorded_settings);
         if spec.n_intervals != N {
             return Err(ReplayError::Horizon {
@@ -277,14 +286,14 @@ fn replay_all(
                 source,
             })?;
         let t0 = Instant::now();
-        let info = planner.solve(guess);
+        let info = solve(&mut planner, rec, input.seq, start)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let replayed = plan_output(input.seq, 0, &info, planner.states(), planner.controls());
         // A solve stopped by other caps than the recorded ones is compared with nothing.
         let recorded = outputs
             .get(&input.seq)
             .filter(|r| comparable((&info, &settings), (r, &recorded_settings)))
-            .filter(|_| guess == recorded_guess);
+            .filter(|_| start == recorded_start);
         let difference = recorded.and_then(|r| first_difference(r, &replayed));
         results.push(PlanResult {
             seq: input.seq,
@@ -310,6 +319,28 @@ fn replay_all(
     }
     planner::progress::end();
     Ok(results)
+}
+
+/// Solves input `seq` from its start: a guess, or the recorded warm start.
+fn solve(
+    planner: &mut Planner<N>,
+    rec: &Recording,
+    seq: u64,
+    start: RecordedStart,
+) -> Result<planner::ip::SolveInfo, ReplayError> {
+    match start {
+        RecordedStart::Guess(guess) => Ok(planner.solve(guess)),
+        RecordedStart::Warm => {
+            let w = rec
+                .warm_start(seq)
+                .ok_or(ReplayError::MissingWarmStart { seq })?;
+            let (opts, duals) = warm_from(w)?;
+            planner
+                .solve_warm_from((&w.states, &w.controls), duals, opts)
+                .map(|r| r.info)
+                .map_err(|source| ReplayError::Plan { seq, source })
+        }
+    }
 }
 
 fn to_ns(ms: f64) -> u64 {

@@ -1,12 +1,13 @@
 //! The checks `replay run` and `replay info` share, so both judge a file alike: every seq
 //! unique per topic, every input a problem inside the model's domain
 //! ([`planner::record::problem_from`], which ends in [`planner::ocp::OcpSpec::check`]) with
-//! the replayed horizon, and the outputs that match no input (which no replay can verify).
+//! the replayed horizon and, when warm-started, with its warm start recorded; and the
+//! outputs that match no input (which no replay can verify).
 
 use std::collections::HashSet;
 
 use plan_record::Recording;
-use planner::record::problem_from;
+use planner::record::{problem_from, warm_from, RecordedStart};
 
 use crate::run::ReplayError;
 use crate::N;
@@ -42,12 +43,18 @@ pub fn validate(rec: &Recording) -> Result<Validated, ReplayError> {
         }
     }
     for input in &rec.inputs {
-        let (spec, _, _) = problem_from(input)?;
+        let (spec, _, start) = problem_from(input)?;
         if spec.n_intervals != N {
             return Err(ReplayError::Horizon {
                 seq: input.seq,
                 n: spec.n_intervals,
             });
+        }
+        if start == RecordedStart::Warm {
+            let w = rec
+                .warm_start(input.seq)
+                .ok_or(ReplayError::MissingWarmStart { seq: input.seq })?;
+            warm_from(w)?;
         }
     }
     let mut orphan_outputs: Vec<u64> = outputs.difference(&inputs).copied().collect();

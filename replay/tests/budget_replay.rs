@@ -9,7 +9,7 @@ use std::process::Command;
 use plan_record::{Record, Recorder, Recording};
 use planner::plan::choice::DRIVABLE_VIOLATION;
 use planner::plan::Planner;
-use planner::record::{plan_input, plan_output, problem_from};
+use planner::record::{plan_input, plan_output, problem_from, RecordedStart};
 use replay::budget::Budgets;
 use replay::run::{run, RunOptions, RunReport};
 use replay::N;
@@ -23,7 +23,10 @@ fn record_capped(path: &std::path::Path) -> Recording {
     let fixture = Recording::from_bytes(common::valid_bytes()).unwrap();
     let r = Recorder::create(path, 8).unwrap();
     for input in &fixture.inputs {
-        let (spec, mut settings, guess) = problem_from(input).unwrap();
+        let (spec, mut settings, start) = problem_from(input).unwrap();
+        let RecordedStart::Guess(guess) = start else {
+            panic!("the fixture has no warm starts");
+        };
         settings.max_iter = K;
         let capped = plan_input(&spec, &settings, guess, input.seq, input.stamp_ns);
         let mut planner = Planner::<N>::new(spec, settings).unwrap();

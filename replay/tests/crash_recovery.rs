@@ -257,7 +257,7 @@ fn an_open_chunk_reaches_the_file_within_the_chunk_period() {
     let r = Recorder::create(&done_path, 4).unwrap();
     assert!(!done_path.exists());
     let started = Recording::read(&f).unwrap();
-    assert_eq!((started.channels.len(), started.inputs.len()), (2, 0));
+    assert_eq!((started.channels.len(), started.inputs.len()), (3, 0));
     assert!(!started.complete());
     assert!(r.record(Record::Input(Box::new(input.clone()))));
     std::thread::sleep(CHUNK_PERIOD + Duration::from_millis(500));

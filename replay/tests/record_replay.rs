@@ -5,7 +5,7 @@ mod common;
 use std::process::Command;
 
 use plan_record::{PlanOutput, Record, Recorder, Recording};
-use planner::record::{plan_input, problem_from};
+use planner::record::{plan_input, problem_from, RecordedStart};
 use replay::run::{run, RunOptions};
 
 #[test]
@@ -54,7 +54,10 @@ fn a_changed_output_bit_is_reported_as_a_difference() {
 fn inputs_round_trip_bit_exactly_through_the_file() {
     let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
     for input in &rec.inputs {
-        let (spec, settings, guess) = problem_from(input).unwrap();
+        let (spec, settings, start) = problem_from(input).unwrap();
+        let RecordedStart::Guess(guess) = start else {
+            panic!("the fixture has no warm starts");
+        };
         let again = plan_input(&spec, &settings, guess, input.seq, input.stamp_ns);
         assert_eq!(&again, input);
         assert_eq!(again.config_hash, input.config_hash);
@@ -203,6 +206,7 @@ fn pooled_recorder_lends_its_slots_and_counts_a_plan_without_one_as_two_drops() 
     let template = PlanRecord {
         input: rec.inputs[0].clone(),
         output: rec.outputs[0].clone(),
+        warm: plan_record::PlanWarmStart::with_capacity(0, 0, 0),
     };
     let r = Recorder::create_pooled(&f, &template, 2).unwrap();
     let a = r.slot().unwrap();

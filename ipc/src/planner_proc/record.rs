@@ -3,24 +3,42 @@
 
 use std::path::Path;
 
-use plan_record::{now_ns, PlanOutput, PlanRecord, RecordError, RecordStats, Recorder};
+use plan_record::{
+    now_ns, PlanOutput, PlanRecord, PlanWarmStart, RecordError, RecordStats, Recorder, WARM_GUESS,
+};
 use planner::guess::GuessKind;
 use planner::ip::{Settings, SolveInfo};
 use planner::model::{NU, NX};
 use planner::ocp::{InitialState, OcpSpec};
+use planner::plan::{WarmDuals, WarmOptions};
 
 use crate::msg::HORIZON_N;
 use crate::road::RoadWindow;
 
-/// The `--record` part of the planner cycle: each equilibrium-started plan is copied into a
-/// preallocated slot of a pooled [`Recorder`] and queued for its writer thread, which
-/// closes an MCAP chunk per plan (allocates nothing and never blocks; a plan that finds no
-/// free slot or a full queue is dropped and counted).
+/// Where a warm-started plan started: the shift, the options, the shifted primal guess and
+/// the shifted multipliers ([`planner::plan::Planner::warm_duals`]).
+#[derive(Debug, Clone, Copy)]
+pub struct WarmRecord<'a> {
+    /// How far the window moved since the previous plan \[m\].
+    pub shift: f64,
+    /// The options of the warm replan.
+    pub opts: WarmOptions,
+    /// The primal guess: N + 1 states, N controls.
+    pub guess: (&'a [[f64; NX]], &'a [[f64; NU]]),
+    /// The multipliers it started from.
+    pub duals: WarmDuals<'a>,
+}
+
+/// The `--record` part of the planner cycle: each plan is copied into a preallocated slot
+/// of a pooled [`Recorder`] and queued for its writer thread, which closes an MCAP chunk
+/// per plan (allocates nothing and never blocks; a plan that finds no free slot or a full
+/// queue is dropped and counted). A warm-started plan is recorded with where it started
+/// (guess `warm` and a warm-start message), so it replays bit for bit on its own.
 #[derive(Debug)]
 pub struct CycleRecorder {
     rec: Recorder,
-    /// Warm-started plans (a recording cannot hold the guess).
-    not_recorded: u64,
+    /// The guess name of a cold plan.
+    cold: GuessKind,
 }
 
 impl CycleRecorder {
@@ -28,39 +46,41 @@ impl CycleRecorder {
     pub const SLOTS: usize = 128;
 
     /// Creates the file; every slot starts as the record of `spec` solved with `settings`
-    /// from the cold guess `guess`, with room for a road of the planner's horizon.
+    /// from the cold guess `guess`, with room for a road of the planner's horizon and for
+    /// the warm start of a planner with `(n, m)` variables and rows.
     pub fn create(
         path: &Path,
         spec: &OcpSpec,
         settings: &Settings,
         guess: GuessKind,
+        (n, m): (usize, usize),
     ) -> Result<Self, RecordError> {
         let mut input = planner::record::plan_input(spec, settings, guess, 0, 0);
         for v in [&mut input.kappa, &mut input.e_min, &mut input.e_max] {
             v.reserve(HORIZON_N + 1);
         }
+        input.guess.reserve(WARM_GUESS.len());
         let template = PlanRecord {
             input,
             output: PlanOutput::with_capacity(HORIZON_N),
+            warm: PlanWarmStart::with_capacity(HORIZON_N, n, m),
         };
         Ok(Self {
             rec: Recorder::create_pooled(path, &template, Self::SLOTS)?,
-            not_recorded: 0,
+            cold: guess,
         })
     }
 
-    /// Records one equilibrium-started plan: the road window and start state it solved
-    /// from and what it produced. False when it was dropped.
-    #[allow(clippy::too_many_arguments)]
+    /// Records one plan: the road window and start state it solved from (and where a
+    /// warm-started solve started) and what it produced. False when it was dropped.
     pub fn record(
         &self,
-        seq: u64,
-        stamp_in: u64,
+        (seq, stamp_in): (u64, u64),
         road: &RoadWindow,
         x0: [f64; NX],
         info: &SolveInfo,
-        states: &[[f64; NX]],
-        controls: &[[f64; NU]],
+        (states, controls): (&[[f64; NX]], &[[f64; NU]]),
+        warm: Option<WarmRecord<'_>>,
     ) -> bool {
         let Some(mut slot) = self.rec.slot() else {
             return false;
@@ -72,18 +92,22 @@ impl CycleRecorder {
             [&road.kappa, &road.e_min, &road.e_max],
             InitialState::Fixed(x0),
         );
+        slot.input.guess.clear();
+        match warm {
+            Some(w) => {
+                slot.input.guess.push_str(WARM_GUESS);
+                planner::record::write_warm(
+                    &mut slot.warm,
+                    (seq, stamp_in, w.shift),
+                    &w.opts,
+                    w.guess,
+                    w.duals,
+                );
+            }
+            None => slot.input.guess.push_str(self.cold.name()),
+        }
         planner::record::write_output(&mut slot.output, seq, now_ns(), info, states, controls);
         self.rec.record_plan(slot)
-    }
-
-    /// Counts a warm-started plan, which is not recorded.
-    pub fn skip_warm_started(&mut self) {
-        self.not_recorded += 1;
-    }
-
-    /// Warm-started plans not recorded.
-    pub fn not_recorded(&self) -> u64 {
-        self.not_recorded
     }
 
     /// Drains the queue and closes the file.

@@ -69,6 +69,38 @@ impl WarmReplan {
     }
 }
 
+/// Multipliers a warm-started solve starts from: equality rows `y` (m), lower and upper
+/// bound multipliers `zl`, `zu` (n + m: variables, then rows), as the solver's
+/// [`WarmStart`] takes them.
+#[derive(Debug, Clone, Copy)]
+pub struct WarmDuals<'a> {
+    /// Row multipliers.
+    pub y: &'a [f64],
+    /// Lower-bound multipliers.
+    pub zl: &'a [f64],
+    /// Upper-bound multipliers.
+    pub zu: &'a [f64],
+}
+
+/// The lengths of a primal guess: N + 1 states, N controls.
+fn check_guess<const N: usize>(xs: &[[f64; NX]], us: &[[f64; NU]]) -> Result<(), PlanError> {
+    if xs.len() != N + 1 {
+        return Err(PlanError::ReplanLength {
+            field: "states",
+            expected: N + 1,
+            got: xs.len(),
+        });
+    }
+    if us.len() != N {
+        return Err(PlanError::ReplanLength {
+            field: "controls",
+            expected: N,
+            got: us.len(),
+        });
+    }
+    Ok(())
+}
+
 /// The buffers of the shifted multipliers, allocated once with the planner.
 #[derive(Debug)]
 pub(super) struct WarmBuffers {
@@ -154,8 +186,8 @@ impl<const N: usize> Planner<N> {
     /// last solution shifted by [`shift_plan`]) with the last solve's multipliers moved
     /// forward by `shift` metres (see the module documentation); the last solve must have
     /// been of this planner's problem. Falls back to the equilibrium start when the warm
-    /// solve stalls. The solution is then in [`Self::states`] and [`Self::controls`].
-    /// Allocates nothing.
+    /// solve stalls. The solution is then in [`Self::states`] and [`Self::controls`]; the
+    /// multipliers it started from in [`Self::warm_duals`]. Allocates nothing.
     #[allow(clippy::too_many_arguments)]
     pub fn replan_warm(
         &mut self,
@@ -167,23 +199,76 @@ impl<const N: usize> Planner<N> {
         shift: f64,
         opts: WarmOptions,
     ) -> Result<WarmReplan, PlanError> {
-        if xs.len() != N + 1 || us.len() != N {
-            let states = xs.len() != N + 1;
-            return Err(PlanError::ReplanLength {
-                field: if states { "states" } else { "controls" },
-                expected: if states { N + 1 } else { N },
-                got: if states { xs.len() } else { us.len() },
-            });
-        }
-        let base = *self.solver.settings();
+        check_guess::<N>(xs, us)?;
         let t0 = std::time::Instant::now();
         let ds = self.nlp.spec().ds();
         self.set_window(kappa, e_min, e_max, x0)?;
         self.shift_duals(shift, ds);
+        self.warm_solve(t0, (xs, us), opts, |p| {
+            p.replan(kappa, e_min, e_max, x0, ReplanGuess::cold(opts.cold))
+        })
+    }
+
+    /// The multipliers the last warm-started solve started from (after
+    /// [`Self::replan_warm`]: the previous solve's, shifted).
+    pub fn warm_duals(&self) -> WarmDuals<'_> {
+        WarmDuals {
+            y: &self.warm.y,
+            zl: &self.warm.zl,
+            zu: &self.warm.zu,
+        }
+    }
+
+    /// Solves this planner's problem as [`Self::replan_warm`] solved it, from a recorded
+    /// primal guess and recorded multipliers (what [`Self::warm_duals`] gave): same
+    /// options, same bits. Falls back to the cold start of `opts` when the warm solve
+    /// stalls. Allocates nothing.
+    pub fn solve_warm_from(
+        &mut self,
+        (xs, us): (&[[f64; NX]], &[[f64; NU]]),
+        duals: WarmDuals<'_>,
+        opts: WarmOptions,
+    ) -> Result<WarmReplan, PlanError> {
+        check_guess::<N>(xs, us)?;
+        let w = &mut self.warm;
+        for (field, from, to) in [
+            ("y", duals.y, &mut w.y),
+            ("zl", duals.zl, &mut w.zl),
+            ("zu", duals.zu, &mut w.zu),
+        ] {
+            if from.len() != to.len() {
+                return Err(PlanError::ReplanLength {
+                    field,
+                    expected: to.len(),
+                    got: from.len(),
+                });
+            }
+            to.copy_from_slice(from);
+        }
+        let t0 = std::time::Instant::now();
+        self.warm_solve(t0, (xs, us), opts, |p| {
+            let kind = match ReplanGuess::cold(opts.cold) {
+                ReplanGuess::RoadSpeed => GuessKind::RoadSpeed,
+                _ => GuessKind::Equilibrium,
+            };
+            Ok(p.solve(kind))
+        })
+    }
+
+    /// The warm solve from `(xs, us)` and the multipliers in the warm buffers under the
+    /// warm iteration cap; when it does not succeed, `cold` solves with what is left of the
+    /// iteration cap and of the time budget counted from `t0`.
+    fn warm_solve(
+        &mut self,
+        t0: std::time::Instant,
+        (xs, us): (&[[f64; NX]], &[[f64; NU]]),
+        opts: WarmOptions,
+        cold: impl FnOnce(&mut Self) -> Result<SolveInfo, PlanError>,
+    ) -> Result<WarmReplan, PlanError> {
+        let base = *self.solver.settings();
         self.nlp.set_initial_guess(xs, us);
-        let warm_cap = opts.max_iter.min(base.max_iter);
         let capped = crate::ip::Settings {
-            max_iter: warm_cap,
+            max_iter: opts.max_iter.min(base.max_iter),
             ..base
         };
         self.solver.set_settings(capped).ok();
@@ -211,7 +296,7 @@ impl<const N: usize> Planner<N> {
             ..base
         };
         self.solver.set_settings(rest).ok();
-        let cold = self.replan(kappa, e_min, e_max, x0, ReplanGuess::cold(opts.cold));
+        let cold = cold(self);
         self.solver.set_settings(base).ok();
         Ok(WarmReplan {
             info: cold?,

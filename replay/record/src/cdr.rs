@@ -1,10 +1,13 @@
-//! Little-endian CDR (the ROS 2 wire format) for [`PlanInput`] and [`PlanOutput`].
+//! Little-endian CDR (the ROS 2 wire format) for [`PlanInput`], [`PlanOutput`] and
+//! [`PlanWarmStart`].
 //!
 //! A 4-byte encapsulation header `[0, 1, 0, 0]`, then the fields in schema order, each
 //! aligned to its size counted from the byte after the header; strings and sequences carry
 //! a u32 length. Doubles are written as their raw bits, so decoding is bit-exact.
 
-use crate::msg::{PlanInput, PlanOutput, CONTROL_LEN, SETTINGS_LEN, STATE_LEN, VEHICLE_LEN};
+use crate::msg::{
+    PlanInput, PlanOutput, PlanWarmStart, CONTROL_LEN, SETTINGS_LEN, STATE_LEN, VEHICLE_LEN,
+};
 
 /// The CDR encapsulation header (little-endian plain CDR).
 pub const HEADER: [u8; 4] = [0, 1, 0, 0];
@@ -303,11 +306,16 @@ pub fn encode_output(e: &mut Encoder, m: &PlanOutput) {
     e.f64(m.time_solve_s);
     e.f64(m.time_line_search_s);
     e.f64(m.time_total_s);
+    encode_columns(e, &m.states, &m.controls);
+}
+
+/// States and controls column by column, one `float64[]` per state or control.
+fn encode_columns(e: &mut Encoder, states: &[[f64; STATE_LEN]], controls: &[[f64; CONTROL_LEN]]) {
     for i in 0..STATE_LEN {
-        e.f64_seq(m.states.iter().map(|x| x[i]));
+        e.f64_seq(states.iter().map(|x| x[i]));
     }
     for i in 0..CONTROL_LEN {
-        e.f64_seq(m.controls.iter().map(|u| u[i]));
+        e.f64_seq(controls.iter().map(|u| u[i]));
     }
 }
 
@@ -338,38 +346,89 @@ pub fn decode_output(data: &[u8]) -> Result<PlanOutput, DecodeError> {
         states: Vec::new(),
         controls: Vec::new(),
     };
+    (m.states, m.controls) = decode_columns(&mut d)?;
+    d.finish()?;
+    Ok(m)
+}
+
+/// The columns [`encode_columns`] wrote; every state column must have the same length, and
+/// so must every control column.
+#[allow(clippy::type_complexity)]
+fn decode_columns(
+    d: &mut Decoder<'_>,
+) -> Result<(Vec<[f64; STATE_LEN]>, Vec<[f64; CONTROL_LEN]>), DecodeError> {
+    let mut states = Vec::new();
     for (i, field) in STATE_FIELDS.iter().enumerate() {
         let offset = d.pos;
         let col = d.f64_seq(field)?;
         if i == 0 {
-            m.states = vec![[0.0; STATE_LEN]; col.len()];
-        } else if col.len() != m.states.len() {
+            states = vec![[0.0; STATE_LEN]; col.len()];
+        } else if col.len() != states.len() {
             return Err(DecodeError::Invalid {
                 field,
                 offset,
-                problem: format!("{} values, but `r` has {}", col.len(), m.states.len()),
+                problem: format!("{} values, but `r` has {}", col.len(), states.len()),
             });
         }
-        for (x, v) in m.states.iter_mut().zip(col) {
+        for (x, v) in states.iter_mut().zip(col) {
             x[i] = v;
         }
     }
+    let mut controls = Vec::new();
     for (i, field) in CONTROL_FIELDS.iter().enumerate() {
         let offset = d.pos;
         let col = d.f64_seq(field)?;
         if i == 0 {
-            m.controls = vec![[0.0; CONTROL_LEN]; col.len()];
-        } else if col.len() != m.controls.len() {
+            controls = vec![[0.0; CONTROL_LEN]; col.len()];
+        } else if col.len() != controls.len() {
             return Err(DecodeError::Invalid {
                 field,
                 offset,
-                problem: format!("{} values, but `delta` has {}", col.len(), m.controls.len()),
+                problem: format!("{} values, but `delta` has {}", col.len(), controls.len()),
             });
         }
-        for (u, v) in m.controls.iter_mut().zip(col) {
+        for (u, v) in controls.iter_mut().zip(col) {
             u[i] = v;
         }
     }
+    Ok((states, controls))
+}
+
+/// Encodes a warm start (schema [`crate::schema::PLAN_WARM_MSG`]).
+pub fn encode_warm(e: &mut Encoder, m: &PlanWarmStart) {
+    e.start();
+    e.u64(m.seq);
+    e.u64(m.stamp_ns);
+    e.f64(m.shift_m);
+    e.u64(m.warm_max_iter);
+    e.f64(m.mu_floor);
+    e.string(&m.cold_guess);
+    encode_columns(e, &m.states, &m.controls);
+    e.f64_seq(m.y.iter().copied());
+    e.f64_seq(m.zl.iter().copied());
+    e.f64_seq(m.zu.iter().copied());
+}
+
+/// Decodes a warm start; the whole payload must be consumed.
+pub fn decode_warm(data: &[u8]) -> Result<PlanWarmStart, DecodeError> {
+    let mut d = Decoder::new(data)?;
+    let mut m = PlanWarmStart {
+        seq: d.u64("seq")?,
+        stamp_ns: d.u64("stamp_ns")?,
+        shift_m: d.f64("shift_m")?,
+        warm_max_iter: d.u64("warm_max_iter")?,
+        mu_floor: d.f64("mu_floor")?,
+        cold_guess: d.string("cold_guess")?,
+        states: Vec::new(),
+        controls: Vec::new(),
+        y: Vec::new(),
+        zl: Vec::new(),
+        zu: Vec::new(),
+    };
+    (m.states, m.controls) = decode_columns(&mut d)?;
+    m.y = d.f64_seq("y")?;
+    m.zl = d.f64_seq("zl")?;
+    m.zu = d.f64_seq("zu")?;
     d.finish()?;
     Ok(m)
 }

@@ -1,5 +1,6 @@
-//! Flight recorder of the planner: what each solve acted on ([`PlanInput`]) and what it
-//! produced ([`PlanOutput`]), as plain structs, written to MCAP by a writer thread behind a
+//! Flight recorder of the planner: what each solve acted on ([`PlanInput`], and for a
+//! warm-started solve where it started, [`PlanWarmStart`]) and what it produced
+//! ([`PlanOutput`]), as plain structs, written to MCAP by a writer thread behind a
 //! bounded queue ([`Recorder`]) and read back with full validation ([`Recording`]).
 //!
 //! Messages are CDR with `ros2msg` schemas ([`schema`]), so Foxglove decodes and plots them,
@@ -22,8 +23,9 @@ mod tail;
 mod writer;
 
 pub use msg::{
-    config_hash, first_difference, PlanInput, PlanOutput, PlanRecord, CONTROL_LEN, CONTROL_NAMES,
-    SETTINGS_FIELDS, SETTINGS_LEN, STATE_LEN, STATE_NAMES, VEHICLE_FIELDS, VEHICLE_LEN,
+    config_hash, first_difference, PlanInput, PlanOutput, PlanRecord, PlanWarmStart, CONTROL_LEN,
+    CONTROL_NAMES, SETTINGS_FIELDS, SETTINGS_LEN, STATE_LEN, STATE_NAMES, VEHICLE_FIELDS,
+    VEHICLE_LEN, WARM_GUESS,
 };
 pub use reader::{ChannelInfo, ReadError, Recording, Recovery, MAX_FILE_BYTES};
 pub use recorder::{

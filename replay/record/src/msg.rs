@@ -82,6 +82,10 @@ pub const SETTINGS_FIELDS: [&str; SETTINGS_LEN] = [
     "kkt",
 ];
 
+/// [`PlanInput::guess`] of a warm-started solve: its start is the [`PlanWarmStart`] of the
+/// same seq.
+pub const WARM_GUESS: &str = "warm";
+
 /// Everything one solve acted on: the problem (road, bounds, initial state, vehicle) and
 /// the solver configuration.
 #[derive(Debug, Clone, PartialEq)]
@@ -92,7 +96,8 @@ pub struct PlanInput {
     pub stamp_ns: u64,
     /// Scenario or segment name.
     pub scenario: String,
-    /// Initial guess (`equilibrium` or `zero`).
+    /// Initial guess (`equilibrium`, `zero`, `road_speed`, or [`WARM_GUESS`]: the
+    /// [`PlanWarmStart`] of the same seq).
     pub guess: String,
     /// Number of intervals N.
     pub n_intervals: u32,
@@ -188,6 +193,58 @@ impl PlanOutput {
     }
 }
 
+/// What a warm-started solve started from beyond its [`PlanInput`]: the primal guess (the
+/// previous plan shifted in s) and the multipliers (the previous solve's, shifted), with
+/// the options of the warm solve and of its fall-back. Together with the input it makes
+/// the solve reproducible bit for bit without the plans before it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanWarmStart {
+    /// Planning cycle number of the input.
+    pub seq: u64,
+    /// When the cycle started \[ns since the Unix epoch\]; the MCAP log time.
+    pub stamp_ns: u64,
+    /// How far the window moved since the previous plan \[m\] (for people; the guess and
+    /// multipliers below are already shifted).
+    pub shift_m: f64,
+    /// Iterations the warm solve may take before it falls back (`u64::MAX`: the solver's
+    /// cap).
+    pub warm_max_iter: u64,
+    /// Lower clip of the matched barrier parameter.
+    pub mu_floor: f64,
+    /// The cold guess the solve falls back to (`equilibrium` or `road_speed`).
+    pub cold_guess: String,
+    /// Primal guess x_0..x_N (physical units).
+    pub states: Vec<[f64; STATE_LEN]>,
+    /// Primal guess u_0..u_{N-1}.
+    pub controls: Vec<[f64; CONTROL_LEN]>,
+    /// Row multipliers (m).
+    pub y: Vec<f64>,
+    /// Lower-bound multipliers (variables, then rows).
+    pub zl: Vec<f64>,
+    /// Upper-bound multipliers (variables, then rows).
+    pub zu: Vec<f64>,
+}
+
+impl PlanWarmStart {
+    /// An empty warm start with room for a horizon of `n_intervals`, `n` variables and `m`
+    /// rows, so filling it in place allocates nothing.
+    pub fn with_capacity(n_intervals: usize, n: usize, m: usize) -> Self {
+        Self {
+            seq: 0,
+            stamp_ns: 0,
+            shift_m: 0.0,
+            warm_max_iter: u64::MAX,
+            mu_floor: 0.0,
+            cold_guess: String::with_capacity(STATUS_CAPACITY),
+            states: Vec::with_capacity(n_intervals + 1),
+            controls: Vec::with_capacity(n_intervals),
+            y: Vec::with_capacity(m),
+            zl: Vec::with_capacity(n + m),
+            zu: Vec::with_capacity(n + m),
+        }
+    }
+}
+
 /// Bytes reserved for a status name in [`PlanOutput::with_capacity`].
 const STATUS_CAPACITY: usize = 32;
 
@@ -200,6 +257,9 @@ pub struct PlanRecord {
     pub input: PlanInput,
     /// What it produced.
     pub output: PlanOutput,
+    /// Where it started when `input.guess` is [`WARM_GUESS`] (written only then; the
+    /// storage stays for the next warm-started plan).
+    pub warm: PlanWarmStart,
 }
 
 impl PlanRecord {
@@ -217,7 +277,7 @@ impl PlanRecord {
             c.push_str(s);
             c
         }
-        let (i, o) = (&self.input, &self.output);
+        let (i, o, w) = (&self.input, &self.output, &self.warm);
         Self {
             input: PlanInput {
                 scenario: string(&i.scenario),
@@ -233,6 +293,15 @@ impl PlanRecord {
                 states: vec(&o.states, o.states.capacity()),
                 controls: vec(&o.controls, o.controls.capacity()),
                 ..o.clone()
+            },
+            warm: PlanWarmStart {
+                cold_guess: string(&w.cold_guess),
+                states: vec(&w.states, w.states.capacity()),
+                controls: vec(&w.controls, w.controls.capacity()),
+                y: vec(&w.y, w.y.capacity()),
+                zl: vec(&w.zl, w.zl.capacity()),
+                zu: vec(&w.zu, w.zu.capacity()),
+                ..w.clone()
             },
         }
     }

@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 use mcap::records::Record as McapRecord;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
-use crate::cdr::{decode_input, decode_output, DecodeError};
-use crate::msg::{PlanInput, PlanOutput};
+use crate::cdr::{decode_input, decode_output, decode_warm, DecodeError};
+use crate::msg::{PlanInput, PlanOutput, PlanWarmStart};
 use crate::recorder::METADATA_NAME;
 use crate::schema::*;
 use crate::tail::{scan, Tail};
@@ -136,6 +136,8 @@ pub struct Recording {
     pub inputs: Vec<PlanInput>,
     /// Planner outputs, in file order.
     pub outputs: Vec<PlanOutput>,
+    /// Warm starts of the warm-started inputs, in file order.
+    pub warm_starts: Vec<PlanWarmStart>,
     /// Every channel, by id.
     pub channels: Vec<ChannelInfo>,
     /// Earliest message log time \[ns\].
@@ -292,6 +294,9 @@ impl Decoder {
         } else if ch.topic == OUTPUT_TOPIC {
             let m = decode_output(payload).map_err(|e| decode_err(OUTPUT_TOPIC, e))?;
             rec.outputs.push(m);
+        } else if ch.topic == WARM_TOPIC {
+            let m = decode_warm(payload).map_err(|e| decode_err(WARM_TOPIC, e))?;
+            rec.warm_starts.push(m);
         }
         Ok(())
     }
@@ -362,6 +367,11 @@ impl Recording {
         }
     }
 
+    /// The warm start recorded for input `seq`.
+    pub fn warm_start(&self, seq: u64) -> Option<&PlanWarmStart> {
+        self.warm_starts.iter().find(|w| w.seq == seq)
+    }
+
     /// Records the recorder dropped, if it wrote its closing metadata.
     pub fn dropped(&self) -> Option<u64> {
         self.recorder.get("dropped").and_then(|v| v.parse().ok())
@@ -418,6 +428,7 @@ fn check_planner_channel(c: &ChannelInfo, text: &[u8]) -> Result<(), ReadError> 
     let (expected, expected_text) = match c.topic.as_str() {
         INPUT_TOPIC => (PLAN_INPUT_NAME, PLAN_INPUT_MSG),
         OUTPUT_TOPIC => (PLAN_OUTPUT_NAME, PLAN_OUTPUT_MSG),
+        WARM_TOPIC => (PLAN_WARM_NAME, PLAN_WARM_MSG),
         _ => return Ok(()),
     };
     if c.schema != expected

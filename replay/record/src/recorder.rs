@@ -20,7 +20,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-use crate::msg::{PlanInput, PlanOutput, PlanRecord};
+use crate::msg::{PlanInput, PlanOutput, PlanRecord, PlanWarmStart, WARM_GUESS};
 use crate::reader::Recording;
 use crate::writer::PlanWriter;
 
@@ -34,6 +34,8 @@ pub enum Record {
     Input(Box<PlanInput>),
     /// What it produced.
     Output(Box<PlanOutput>),
+    /// Where a warm-started solve started.
+    Warm(Box<PlanWarmStart>),
 }
 
 /// Why a recording could not be written.
@@ -104,8 +106,10 @@ pub struct RecordStats {
     pub inputs: u64,
     /// Outputs written.
     pub outputs: u64,
+    /// Warm starts written.
+    pub warm_starts: u64,
     /// Records dropped because the queue was full, no pooled slot was free, or the writer
-    /// had failed (a pooled plan counts as two records).
+    /// had failed (a pooled plan counts as two records, three when warm-started).
     pub dropped: u64,
 }
 
@@ -119,8 +123,17 @@ impl Job {
     fn records(&self) -> u64 {
         match self {
             Job::One(_) => 1,
-            Job::Plan(_) => 2,
+            Job::Plan(p) => plan_records(p),
         }
+    }
+}
+
+/// Messages of one pooled plan: input and output, and the warm start when there is one.
+fn plan_records(p: &PlanRecord) -> u64 {
+    if p.input.guess == WARM_GUESS {
+        3
+    } else {
+        2
     }
 }
 
@@ -242,7 +255,7 @@ impl Recorder {
         match tx.try_send(Job::Plan(slot)) {
             Ok(()) => true,
             Err(TrySendError::Full(job) | TrySendError::Disconnected(job)) => {
-                self.dropped.fetch_add(2, Ordering::Relaxed);
+                self.dropped.fetch_add(job.records(), Ordering::Relaxed);
                 if let (Job::Plan(slot), Some(pool)) = (job, &self.pool) {
                     let _ = pool.back.try_send(slot);
                 }
@@ -300,12 +313,16 @@ impl Drop for Recorder {
 fn write_job(w: &mut PlanWriter, job: &Job) -> mcap::McapResult<()> {
     match job {
         Job::One(Record::Input(m)) => w.write_input(m),
+        Job::One(Record::Warm(m)) => w.write_warm(m),
         Job::One(Record::Output(m)) => {
             w.write_output(m)?;
             w.close_chunk()
         }
         Job::Plan(p) => {
             w.write_input(&p.input)?;
+            if p.input.guess == WARM_GUESS {
+                w.write_warm(&p.warm)?;
+            }
             w.write_output(&p.output)?;
             w.close_chunk()
         }
@@ -347,13 +364,13 @@ fn write_loop(
         if failed.is_some() {
             dropped.fetch_add(job.records(), Ordering::Relaxed);
         } else {
-            let before = w.inputs + w.outputs;
+            let before = w.messages();
             let mut result = write_job(&mut w, &job);
             if result.is_ok() && w.chunk_deadline().is_some_and(|d| Instant::now() >= d) {
                 result = w.close_chunk();
             }
             if let Err(e) = result {
-                let written = w.inputs + w.outputs - before;
+                let written = w.messages() - before;
                 dropped.fetch_add(job.records() - written, Ordering::Relaxed);
                 failed = Some(e);
             }
@@ -370,11 +387,13 @@ fn write_loop(
     let stats = RecordStats {
         inputs: w.inputs,
         outputs: w.outputs,
+        warm_starts: w.warm_starts,
         dropped: dropped.load(Ordering::Relaxed),
     };
     let metadata = BTreeMap::from([
         ("inputs".to_string(), stats.inputs.to_string()),
         ("outputs".to_string(), stats.outputs.to_string()),
+        ("warm_starts".to_string(), stats.warm_starts.to_string()),
         ("dropped".to_string(), stats.dropped.to_string()),
         ("queue_capacity".to_string(), capacity.to_string()),
     ]);
@@ -382,8 +401,9 @@ fn write_loop(
     Ok(stats)
 }
 
-/// Writes the inputs and outputs of `rec` to a cleanly closed file at `path`, in log-time
-/// order (one chunk per output, like the recorder), keeping the recorder's metadata and
+/// Writes the inputs, warm starts and outputs of `rec` to a cleanly closed file at `path`,
+/// in log-time order (each warm start after its input, one chunk per output, like the
+/// recorder), keeping the recorder's metadata and
 /// noting the bytes a recovery dropped. The file is written beside `path` under a
 /// temporary name, synced, and renamed over `path`, so `path` is never half written.
 pub fn write_recording(rec: &Recording, path: &Path) -> Result<RecordStats, RecordError> {
@@ -420,7 +440,11 @@ fn write_clean(rec: &Recording, path: &Path) -> Result<RecordStats, RecordError>
             (a, _) => a.is_some(),
         };
         if input_first {
-            w.write_input(&rec.inputs[i]).map_err(mcap_err)?;
+            let input = &rec.inputs[i];
+            w.write_input(input).map_err(mcap_err)?;
+            for warm in rec.warm_starts.iter().filter(|m| m.seq == input.seq) {
+                w.write_warm(warm).map_err(mcap_err)?;
+            }
             i += 1;
         } else {
             w.write_output(&rec.outputs[o]).map_err(mcap_err)?;
@@ -431,11 +455,13 @@ fn write_clean(rec: &Recording, path: &Path) -> Result<RecordStats, RecordError>
     let stats = RecordStats {
         inputs: w.inputs,
         outputs: w.outputs,
+        warm_starts: w.warm_starts,
         dropped: rec.dropped().unwrap_or(0),
     };
     let mut metadata = rec.recorder.clone();
     metadata.insert("inputs".into(), stats.inputs.to_string());
     metadata.insert("outputs".into(), stats.outputs.to_string());
+    metadata.insert("warm_starts".into(), stats.warm_starts.to_string());
     if let Some(r) = &rec.recovery {
         metadata.insert(
             "recovered_dropped_bytes".into(),

@@ -7,6 +7,10 @@ pub const PROFILE: &str = "ros2";
 pub const INPUT_TOPIC: &str = "/planner/input";
 /// Topic of the planner outputs.
 pub const OUTPUT_TOPIC: &str = "/planner/output";
+/// Topic of the warm starts (one per warm-started input, same seq).
+pub const WARM_TOPIC: &str = "/planner/warm_start";
+/// Schema name of [`crate::PlanWarmStart`].
+pub const PLAN_WARM_NAME: &str = "trajopt_msgs/msg/PlanWarmStart";
 /// Schema name of [`crate::PlanInput`].
 pub const PLAN_INPUT_NAME: &str = "trajopt_msgs/msg/PlanInput";
 /// Schema name of [`crate::PlanOutput`].
@@ -81,6 +85,37 @@ float64[] t
 float64[] delta
 float64[] t_comb
 float64[] t_bf
+";
+
+/// `ros2msg` text of [`crate::PlanWarmStart`] (field order = CDR order).
+pub const PLAN_WARM_MSG: &str = "\
+# Where a warm-started planner solve started, beyond its PlanInput (input guess `warm`).
+uint64 seq
+uint64 stamp_ns
+# how far the window moved since the previous plan [m]; the guess below is shifted
+float64 shift_m
+# iterations before the warm solve falls back (2^64-1: the solver's cap)
+uint64 warm_max_iter
+float64 mu_floor
+# guess of the fall-back solve
+string cold_guess
+# primal guess, one float64[] per state (N+1 nodes) and control (N intervals)
+float64[] r
+float64[] v
+float64[] beta
+float64[] v_wr
+float64[] dfz
+float64[] e
+float64[] dpsi
+float64[] s
+float64[] t
+float64[] delta
+float64[] t_comb
+float64[] t_bf
+# multipliers: rows (m), lower and upper bounds (n variables, then m rows)
+float64[] y
+float64[] zl
+float64[] zu
 ";
 
 #[cfg(test)]

@@ -18,8 +18,8 @@ use mcap::records::{MessageHeader, Metadata};
 use mcap::write::NoSeek;
 use mcap::{McapResult, WriteOptions, Writer};
 
-use crate::cdr::{encode_input, encode_output, Encoder};
-use crate::msg::{PlanInput, PlanOutput};
+use crate::cdr::{encode_input, encode_output, encode_warm, Encoder};
+use crate::msg::{PlanInput, PlanOutput, PlanWarmStart};
 use crate::recorder::RecordError;
 use crate::schema::*;
 
@@ -56,12 +56,13 @@ impl Write for Sink {
     }
 }
 
-/// Writes planner inputs and outputs as CDR messages on their two channels, one chunk at
-/// a time.
+/// Writes planner inputs, warm starts and outputs as CDR messages on their three
+/// channels, one chunk at a time.
 pub(crate) struct PlanWriter {
     w: Writer<NoSeek<Sink>>,
     input: u16,
     output: u16,
+    warm: u16,
     enc: Encoder,
     path: PathBuf,
     /// When the open chunk received its first message (None: no chunk open).
@@ -70,6 +71,8 @@ pub(crate) struct PlanWriter {
     pub inputs: u64,
     /// Outputs written.
     pub outputs: u64,
+    /// Warm starts written.
+    pub warm_starts: u64,
 }
 
 impl PlanWriter {
@@ -95,17 +98,19 @@ impl PlanWriter {
             .disable_seeking(true)
             .create(NoSeek::new(sink))
             .map_err(mcap_err)?;
-        let (input, output) = add_channels(&mut w).map_err(mcap_err)?;
+        let [input, output, warm] = add_channels(&mut w).map_err(mcap_err)?;
         w.flush().map_err(mcap_err)?;
         Ok(Self {
             w,
             input,
             output,
+            warm,
             enc: Encoder::default(),
             path: path.to_path_buf(),
             opened: None,
             inputs: 0,
             outputs: 0,
+            warm_starts: 0,
         })
     }
 
@@ -133,6 +138,19 @@ impl PlanWriter {
         self.write(self.output, m.seq, m.stamp_ns)?;
         self.outputs += 1;
         Ok(())
+    }
+
+    /// Writes a warm start into the open chunk (opening one if needed).
+    pub fn write_warm(&mut self, m: &PlanWarmStart) -> McapResult<()> {
+        encode_warm(&mut self.enc, m);
+        self.write(self.warm, m.seq, m.stamp_ns)?;
+        self.warm_starts += 1;
+        Ok(())
+    }
+
+    /// Messages written on all channels.
+    pub fn messages(&self) -> u64 {
+        self.inputs + self.outputs + self.warm_starts
     }
 
     fn write(&mut self, channel_id: u16, seq: u64, stamp: u64) -> McapResult<()> {
@@ -171,14 +189,16 @@ impl PlanWriter {
     }
 }
 
-fn add_channels(w: &mut Writer<NoSeek<Sink>>) -> McapResult<(u16, u16)> {
-    let si = w.add_schema(PLAN_INPUT_NAME, SCHEMA_ENCODING, PLAN_INPUT_MSG.as_bytes())?;
-    let so = w.add_schema(
-        PLAN_OUTPUT_NAME,
-        SCHEMA_ENCODING,
-        PLAN_OUTPUT_MSG.as_bytes(),
-    )?;
-    let input = w.add_channel(si, INPUT_TOPIC, MESSAGE_ENCODING, &BTreeMap::new())?;
-    let output = w.add_channel(so, OUTPUT_TOPIC, MESSAGE_ENCODING, &BTreeMap::new())?;
-    Ok((input, output))
+/// The input, output and warm-start channels with their schemas.
+fn add_channels(w: &mut Writer<NoSeek<Sink>>) -> McapResult<[u16; 3]> {
+    let mut ids = [0; 3];
+    for (id, (name, text, topic)) in ids.iter_mut().zip([
+        (PLAN_INPUT_NAME, PLAN_INPUT_MSG, INPUT_TOPIC),
+        (PLAN_OUTPUT_NAME, PLAN_OUTPUT_MSG, OUTPUT_TOPIC),
+        (PLAN_WARM_NAME, PLAN_WARM_MSG, WARM_TOPIC),
+    ]) {
+        let schema = w.add_schema(name, SCHEMA_ENCODING, text.as_bytes())?;
+        *id = w.add_channel(schema, topic, MESSAGE_ENCODING, &BTreeMap::new())?;
+    }
+    Ok(ids)
 }

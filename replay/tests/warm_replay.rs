@@ -1,0 +1,126 @@
+//! Warm-started plans in a recording: each is recorded with where it started (guess `warm`
+//! and a `/planner/warm_start` message holding the shifted guess and multipliers) and
+//! replays bit-identically on its own, the fall-back to the cold start included; a warm
+//! input without its warm start is refused by seq before anything is solved.
+
+mod common;
+
+use plan_record::{PlanWarmStart, Record, Recorder, Recording, WARM_GUESS};
+use planner::config::{load_scenario, load_solver, load_vehicle};
+use planner::guess::GuessKind;
+use planner::model::{ix, NU, NX};
+use planner::ocp::OcpSpec;
+use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
+use planner::record::{plan_input, plan_output, write_warm};
+use replay::run::{run, ReplayError, RunOptions};
+use replay::N;
+use std::path::Path;
+
+fn oval() -> (OcpSpec, planner::ip::Settings) {
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
+    let vehicle = load_vehicle(&root.join("vehicles/lc500.toml")).unwrap();
+    let spec = load_scenario(&root.join("scenarios/oval.toml"), None, vehicle).unwrap();
+    let settings = load_solver(&root.join("solver.toml")).unwrap();
+    (spec, settings)
+}
+
+/// The oval's road `j` nodes on (wrapping around the lap) and the free-start lap's state
+/// there, re-referenced to s = t = 0.
+fn window(spec: &OcpSpec, lap: &[[f64; NX]], j: usize) -> ([Vec<f64>; 3], [f64; NX]) {
+    let road = |v: &[f64]| (0..=N).map(|k| v[(k + j) % N]).collect::<Vec<f64>>();
+    let mut x0 = lap[j % N];
+    x0[ix::S] = 0.0;
+    x0[ix::T] = 0.0;
+    (
+        [road(&spec.kappa), road(&spec.e_min), road(&spec.e_max)],
+        x0,
+    )
+}
+
+/// A replanning drive along the oval, two nodes per cycle: one cold plan, then warm plans
+/// (the last one with a one-iteration warm cap, so it falls back to the equilibrium start),
+/// recorded as the planner process records them.
+fn drive(path: &Path) -> Recording {
+    let (spec, settings) = oval();
+    let mut lap = Planner::<N>::new(spec.clone(), settings).unwrap();
+    assert!(lap.solve(GuessKind::Equilibrium).status.is_success());
+    let lap = lap.states().to_vec();
+    let ds = spec.ds();
+    let mut p = Planner::<N>::new(spec.clone(), settings).unwrap();
+    let r = Recorder::create(path, 32).unwrap();
+    let (mut gx, mut gu) = (vec![[0.0; NX]; N + 1], vec![[0.0; NU]; N]);
+    let cycles = 6u64;
+    for seq in 0..cycles {
+        let ([k, lo, hi], x0) = window(&spec, &lap, 2 * seq as usize);
+        let mut warm = None;
+        let info = if seq == 0 {
+            p.replan(&k, &lo, &hi, x0, ReplanGuess::Equilibrium)
+                .unwrap()
+        } else {
+            let shift = 2.0 * ds;
+            shift_plan(p.states(), p.controls(), ds, shift, &x0, &mut gx, &mut gu);
+            let opts = WarmOptions {
+                max_iter: if seq == cycles - 1 { 1 } else { usize::MAX },
+                ..WarmOptions::default()
+            };
+            let w = p
+                .replan_warm(&k, &lo, &hi, x0, (&gx, &gu), shift, opts)
+                .unwrap();
+            assert_eq!(w.fell_back, seq == cycles - 1, "seq {seq}: {w:?}");
+            let mut m = PlanWarmStart::with_capacity(N, 0, 0);
+            write_warm(&mut m, (seq, seq, shift), &opts, (&gx, &gu), p.warm_duals());
+            warm = Some(m);
+            w.info
+        };
+        assert!(info.status.is_success(), "seq {seq}: {info:?}");
+        let mut input = plan_input(p.spec(), &settings, GuessKind::Equilibrium, seq, seq);
+        if let Some(m) = warm {
+            input.guess = WARM_GUESS.into();
+            assert!(r.record(Record::Input(Box::new(input))));
+            assert!(r.record(Record::Warm(Box::new(m))));
+        } else {
+            assert!(r.record(Record::Input(Box::new(input))));
+        }
+        let out = plan_output(seq, seq, &info, p.states(), p.controls());
+        assert!(r.record(Record::Output(Box::new(out))));
+    }
+    let stats = r.finish().unwrap();
+    assert_eq!(stats.warm_starts, cycles - 1);
+    Recording::read(path).unwrap()
+}
+
+#[test]
+fn warm_started_plans_replay_bit_identically_with_their_fall_back() {
+    let d = common::temp_dir("warm_replay");
+    let rec = drive(&d.join("warm.mcap"));
+    assert_eq!(rec.warm_starts.len(), 5);
+    let r = run(&rec, RunOptions::default()).unwrap();
+    assert_eq!((r.identical, r.different, r.unverified), (6, 0, 0), "{r}");
+    assert!(r.deterministic, "{r}");
+    // The warm plans took fewer iterations than the cold one: the recorded start is used.
+    let its: Vec<u32> = r.per_plan.iter().map(|p| p.iterations).collect();
+    assert!(its[1..5].iter().all(|&i| i < its[0]), "{its:?}");
+}
+
+#[test]
+fn a_warm_input_without_its_warm_start_is_refused_by_seq() {
+    let d = common::temp_dir("warm_missing");
+    let mut rec = drive(&d.join("warm.mcap"));
+    rec.warm_starts.retain(|w| w.seq != 3);
+    match run(&rec, RunOptions::default()) {
+        Err(ReplayError::MissingWarmStart { seq: 3 }) => {}
+        other => panic!("expected the missing warm start of seq 3, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_rewritten_recording_keeps_its_warm_starts() {
+    let d = common::temp_dir("warm_rewrite");
+    let rec = drive(&d.join("warm.mcap"));
+    let copy = d.join("copy.mcap");
+    let stats = plan_record::write_recording(&rec, &copy).unwrap();
+    assert_eq!(stats.warm_starts, 5);
+    let back = Recording::read(&copy).unwrap();
+    assert_eq!(back.warm_starts, rec.warm_starts);
+    assert_eq!(back.inputs, rec.inputs);
+}

@@ -91,8 +91,9 @@ pub struct PlannerArgs {
     #[arg(long, default_value = "equilibrium", value_parser = ["equilibrium", "road_speed"])]
     pub cold_guess: String,
     /// Warm-start from the previous plan shifted in s, primal and dual, with a barrier
-    /// parameter matched to the shifted point (`Planner::replan_warm`, docs/solver.md).
-    #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+    /// parameter matched to the shifted point (`Planner::replan_warm`, docs/solver.md);
+    /// `off` starts every plan from the cold guess.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub warm_start: String,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
     #[arg(long)]

@@ -67,6 +67,25 @@ pub fn recorded_hit_cap(out: &plan_record::PlanOutput, settings: &Settings) -> b
     }
 }
 
+/// Whether a solve was stopped by its wall-clock budget: where it stops depends on the
+/// machine's speed at that moment, so no replay can reproduce its bits.
+pub fn stopped_by_clock(info: &SolveInfo, settings: &Settings) -> bool {
+    match info.status {
+        Status::TimeLimit => true,
+        Status::Acceptable => info.times.total >= settings.max_time_s,
+        _ => false,
+    }
+}
+
+/// [`stopped_by_clock`] for a recorded output solved with `settings`.
+pub fn recorded_stopped_by_clock(out: &plan_record::PlanOutput, settings: &Settings) -> bool {
+    match out.status.as_str() {
+        "time_limit" => true,
+        "acceptable" => out.time_total_s >= settings.max_time_s,
+        _ => false,
+    }
+}
+
 /// Whether a replayed solve is compared with its recorded output: it ran under the
 /// recorded caps, or neither it nor the recording stopped at a cap (a cap that does not
 /// bind changes no bits).

@@ -11,7 +11,10 @@ use planner::plan::Planner;
 use planner::record::{plan_output, problem_from, warm_from, RecordedStart};
 use serde::Serialize;
 
-use crate::budget::{comparable, hit_cap, Budgets, SentCounts, SentPlans};
+use crate::budget::{
+    comparable, hit_cap, recorded_stopped_by_clock, stopped_by_clock, Budgets, SentCounts,
+    SentPlans,
+};
 use crate::info::Recovered;
 use crate::stats::{latency, Latency, StatsError};
 use crate::validate::{orphan_line, validate};
@@ -124,8 +127,12 @@ pub struct PlanResult {
     pub iterations: u32,
     /// Evaluation, factorization, solve, line-search time \[ms\].
     pub phases_ms: [f64; 4],
-    /// Bit-identical to the recorded output (None: no output recorded).
+    /// Bit-identical to the recorded output (None: no output recorded, or stopped by the
+    /// clock).
     pub identical: Option<bool>,
+    /// The recorded or the replayed solve was stopped by its wall-clock budget: compared
+    /// with nothing (where a clock stops a solve is not reproducible).
+    pub clock_limited: bool,
     /// The first difference when not identical.
     pub difference: Option<String>,
     /// Latency above the budget.
@@ -179,12 +186,16 @@ pub struct RunReport {
     pub identical: usize,
     /// Outputs that differ.
     pub different: usize,
-    /// Inputs without a recorded output.
+    /// Inputs without a comparable recorded output (other than those stopped by the clock).
     pub unverified: usize,
+    /// Plans stopped by the wall-clock budget when recorded or replayed: not comparable
+    /// bit for bit (`replay run --max-iter` replays budgets deterministically).
+    pub clock_limited: usize,
     /// Seqs of recorded outputs that match no input (nothing replays them).
     pub orphan_outputs: Vec<u64>,
-    /// True when every output was recorded and is bit-identical, and every recorded
-    /// output belongs to an input.
+    /// True when every output was recorded and is bit-identical (apart from the solves a
+    /// clock stopped, which no replay can reproduce), and every recorded output belongs to
+    /// an input.
     pub deterministic: bool,
     /// Replayed latency.
     pub latency: Latency,
@@ -289,11 +300,16 @@ fn replay_all(
         let info = solve(&mut planner, rec, input.seq, start)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let replayed = plan_output(input.seq, 0, &info, planner.states(), planner.controls());
-        // A solve stopped by other caps than the recorded ones is compared with nothing.
+        // A solve stopped by other caps than the recorded ones, or by a clock, is compared
+        // with nothing.
+        let clock_limited = stopped_by_clock(&info, &settings)
+            || outputs
+                .get(&input.seq)
+                .is_some_and(|r| recorded_stopped_by_clock(r, &recorded_settings));
         let recorded = outputs
             .get(&input.seq)
             .filter(|r| comparable((&info, &settings), (r, &recorded_settings)))
-            .filter(|_| start == recorded_start);
+            .filter(|_| start == recorded_start && !clock_limited);
         let difference = recorded.and_then(|r| first_difference(r, &replayed));
         results.push(PlanResult {
             seq: input.seq,
@@ -309,6 +325,7 @@ fn replay_all(
                 info.times.line_search * 1e3,
             ],
             identical: recorded.map(|_| difference.is_none()),
+            clock_limited,
             difference,
             missed: latency_ms > opts.budget_ms,
             max_violation: info.max_violation,
@@ -390,7 +407,11 @@ fn report(
         .iter()
         .filter(|p| p.identical == Some(false))
         .count();
-    let unverified = per_plan.iter().filter(|p| p.identical.is_none()).count();
+    let clock_limited = per_plan.iter().filter(|p| p.clock_limited).count();
+    let unverified = per_plan
+        .iter()
+        .filter(|p| p.identical.is_none() && !p.clock_limited)
+        .count();
     Ok(RunReport {
         plans: per_plan.len(),
         pinned_core,
@@ -404,6 +425,7 @@ fn report(
         identical,
         different,
         unverified,
+        clock_limited,
         orphan_outputs: Vec::new(),
         deterministic: different == 0 && unverified == 0,
         latency: latency(&lat)?,
@@ -436,10 +458,11 @@ impl std::fmt::Display for RunReport {
         )?;
         writeln!(
             f,
-            "determinism: {} bit-identical, {} different, {} without a recorded output -> {}",
+            "determinism: {} bit-identical, {} different, {} without a recorded output, {} stopped by the clock -> {}",
             self.identical,
             self.different,
             self.unverified,
+            self.clock_limited,
             if self.deterministic {
                 "DETERMINISTIC"
             } else {

@@ -69,8 +69,8 @@ pub struct ClosedLoopArgs {
     #[arg(long, default_value = "equilibrium", value_parser = ["equilibrium", "road_speed"])]
     cold_guess: String,
     /// Warm-start each plan from the previous one, shifted to the car (`planner_proc
-    /// --warm-start`; docs/solver.md).
-    #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+    /// --warm-start`; docs/solver.md); `off` starts every plan from the cold guess.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     warm_start: String,
     /// Keep the tracker's driven trace and plan log (driven.csv, plans.csv) in this folder
     /// (default: a temporary folder removed after the run).

@@ -71,6 +71,9 @@ def parse_args():
                     help="passed to trajopt solve (0: the paper's pure minimum time)")
     ap.add_argument("--mu-strategy", default="monotone", choices=["monotone", "adaptive"],
                     help="IPOPT's barrier rule (the paper's Table III: adaptive)")
+    ap.add_argument("--count-factorizations", action="store_true",
+                    help="IPOPT: one more (untimed) solve per case with a detailed log, "
+                         "counting MUMPS factorizations in all and per iteration")
     return ap.parse_args()
 
 
@@ -320,6 +323,44 @@ class Nlp:
                 opti.set_initial(self.us[k], gu)
 
 
+def ipopt_options(args, log=None):
+    """IPOPT's options; with `log`, a detailed log (print level 6) goes to that file."""
+    opts = {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0, "sb": "yes",
+            "linear_solver": "mumps", "mu_strategy": args.mu_strategy}
+    if log:
+        opts.update({"output_file": log, "file_print_level": 6})
+    return opts
+
+
+def count_factorizations(nlp, case, args):
+    """Factorizations of one IPOPT solve of `case`, from its detailed log: MUMPS numerical
+    factorizations in all (the line MUMPS's statistics print after each one) and per
+    search direction (IPOPT's "Number of trial factorizations performed": more than one
+    when the inertia is corrected)."""
+    with tempfile.TemporaryDirectory() as d:
+        log = os.path.join(d, "ipopt.log")
+        nlp.opti.solver("ipopt", {"expand": True, "print_time": False,
+                                  "detect_simple_bounds": True}, ipopt_options(args, log))
+        nlp.load(case)
+        try:
+            nlp.opti.solve()
+        except RuntimeError:
+            pass  # not converged: its log still counts
+        with open(log) as f:
+            text = f.read()
+    per_direction = [int(line.rsplit(":", 1)[1]) for line in text.splitlines()
+                     if line.startswith("Number of trial factorizations performed:")]
+    hist = {}
+    for k in per_direction:
+        hist[str(k)] = hist.get(str(k), 0) + 1
+    return {
+        "factorizations": text.count("Number of doubles for MUMPS to hold factorization"),
+        "directions": len(per_direction),
+        "factorizations_per_direction_max": max(per_direction, default=0),
+        "factorizations_per_direction": hist,
+    }
+
+
 def make_nlp(p, n, name, args):
     jit = {} if args.no_jit else {
         "jit": True, "compiler": "shell",
@@ -330,8 +371,7 @@ def make_nlp(p, n, name, args):
     nlp = Nlp(p, n, lifted=(name == "fatrop"))
     if name == "ipopt":
         nlp.opti.solver("ipopt", {"expand": True, "print_time": False, "detect_simple_bounds": True, **jit},
-                        {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0, "sb": "yes",
-                         "linear_solver": "mumps", "mu_strategy": args.mu_strategy})
+                        ipopt_options(args))
     else:
         nlp.opti.solver("fatrop", {"expand": True, "print_time": False, "structure_detection": "auto",
                                    "fatrop": {"tol": 1e-6, "constr_viol_tol": 1e-6, "print_level": 0},
@@ -393,6 +433,11 @@ def main():
     for name in args.solvers.split(","):
         nlp = make_nlp(p, cases[0].n, name, args)
         rows += [run_case(nlp, name, c, args) for c in cases]
+        if name == "ipopt" and args.count_factorizations:
+            counts = {c.name: count_factorizations(nlp, c, args) for c in cases}
+            for r in rows:
+                if r["solver"] == "ipopt":
+                    r.update(counts[r["case"]])
     rows.sort(key=lambda r: [c.name for c in cases].index(r["case"]))
     print(f"median of {args.repeat} solves each; CasADi derivatives "
           f"{'interpreted' if args.no_jit else 'JIT-compiled (gcc -O3 -march=native)'}", file=sys.stderr)

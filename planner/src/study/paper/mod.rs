@@ -34,6 +34,11 @@ pub struct ExternalRow {
     pub iterations: Option<usize>,
     /// Median solve time \[ms\].
     pub median_ms: f64,
+    /// MUMPS factorizations of one solve (None: not counted).
+    pub factorizations: Option<usize>,
+    /// Search directions by the number of factorizations each took, (count, directions),
+    /// ascending (inertia corrections add factorizations).
+    pub per_direction: Vec<(usize, usize)>,
 }
 
 /// Where the IPOPT column of Table III comes from.

@@ -187,7 +187,7 @@ pub(super) fn barrier(
     let oval_bare = crate::study::barrier::run(&cfg.oval, None, &cfg.vehicle, bare, 1, 0.0)?;
     let mut s = table_iv(cfg, &oval, &oval_bare, &by_rule);
     s += &table_iii(cfg, &by_rule);
-    s += &inertia(&by_rule);
+    s += &inertia(&by_rule, &cfg.external);
     Ok(s)
 }
 
@@ -309,7 +309,7 @@ fn table_iii(cfg: &PaperConfig, by_rule: &[(BarrierRule, Vec<StartRun>)]) -> Str
 
 /// Factorizations per iteration over the 51 starts with the default rule (the paper's S06
 /// point: IPOPT's per-iteration cost blows up from repeated inertia corrections).
-fn inertia(by_rule: &[(BarrierRule, Vec<StartRun>)]) -> String {
+fn inertia(by_rule: &[(BarrierRule, Vec<StartRun>)], external: &External) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "## Inertia handling: factorizations per iteration\n");
     for (rule, runs) in by_rule {
@@ -355,13 +355,70 @@ fn inertia(by_rule: &[(BarrierRule, Vec<StartRun>)]) -> String {
             dist.join(", ")
         );
     }
+    s += &ipopt_factorizations(by_rule, external);
     let _ = writeln!(
         s,
         "\nThe cap `max_refactorizations` bounds an iteration's factorizations: after the \
          inertia-correcting attempts the iteration takes the convexified fallback step. The \
-         paper: IPOPT on S06 took 10.7 s for 129 iterations from repeated refactorizations; \
-         IPOPT's own counts need `bench/external` (not part of this report's IPOPT column).\n"
+         paper: IPOPT on S06 took 10.7 s for 129 iterations from repeated refactorizations.\n"
     );
+    s
+}
+
+/// IPOPT's factorizations on S01-S10 (from `bench/external`) next to this solver's with
+/// the default rule on the same segments.
+fn ipopt_factorizations(by_rule: &[(BarrierRule, Vec<StartRun>)], external: &External) -> String {
+    let mut s = String::new();
+    let External::Rows(rows, _) = external else {
+        let _ = writeln!(
+            s,
+            "\nIPOPT's factorizations: not counted (no `bench/external` run, see Table III)."
+        );
+        return s;
+    };
+    let ours = by_rule
+        .iter()
+        .find(|(r, _)| *r == BarrierRule::Monotone)
+        .map(|(_, runs)| runs.as_slice())
+        .unwrap_or_default();
+    let _ = writeln!(
+        s,
+        "\nPer segment, IPOPT (adaptive mu, MUMPS; `casadi_compare.py --count-factorizations`) \
+         against `monotone` here: iterations, factorizations, most in one iteration, and \
+         IPOPT's iterations by factorization count.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| seg | IPOPT: iter | factorizations | max | by count | here: iter | factorizations | max |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let hist: Vec<String> = r
+            .per_direction
+            .iter()
+            .map(|(k, n)| format!("{k}: {n}"))
+            .collect();
+        let max = r.per_direction.last().map_or(0, |(k, _)| *k);
+        let here = ours.iter().find(|o| o.name == r.case).map_or(
+            "- | - | -".to_string(),
+            |o| {
+                format!(
+                    "{} | {} | {}",
+                    o.iterations,
+                    o.factorizations.iter().sum::<usize>(),
+                    o.factorizations.iter().copied().max().unwrap_or(0)
+                )
+            },
+        );
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {max} | {} | {here} |",
+            r.case,
+            r.iterations.map_or("-".into(), |i| i.to_string()),
+            r.factorizations.map_or("-".into(), |f| f.to_string()),
+            hist.join(", ")
+        );
+    }
     s
 }
 

@@ -143,7 +143,22 @@ fn python_with_casadi() -> Option<String> {
     })
 }
 
-/// IPOPT (adaptive mu, pure minimum time) on S01-S10 through `casadi_compare.py`.
+/// `{"k": directions, ...}` of `casadi_compare.py` as ascending (k, directions) pairs.
+fn per_direction(v: &serde_json::Value) -> Vec<(usize, usize)> {
+    let mut out: Vec<(usize, usize)> = v
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter_map(|(k, n)| Some((k.parse().ok()?, n.as_u64()? as usize)))
+                .collect()
+        })
+        .unwrap_or_default();
+    out.sort_unstable();
+    out
+}
+
+/// IPOPT (adaptive mu, pure minimum time) on S01-S10 through `casadi_compare.py`, with
+/// its factorizations counted.
 fn ipopt_rows(quick: bool) -> External {
     let Some(py) = python_with_casadi() else {
         return External::Missing(
@@ -170,7 +185,8 @@ fn ipopt_rows(quick: bool) -> External {
             "--steering-slew-weight",
             "0",
         ])
-        .args(["--repeat", if quick { "1" } else { "5" }]);
+        .args(["--repeat", if quick { "1" } else { "5" }])
+        .arg("--count-factorizations");
     if quick {
         cmd.arg("--no-jit");
     }
@@ -196,6 +212,8 @@ fn ipopt_rows(quick: bool) -> External {
                     status: r["status"].as_str().unwrap_or("-").to_string(),
                     iterations: r["iterations"].as_u64().map(|i| i as usize),
                     median_ms: r["solve_ms_median"].as_f64().unwrap_or(f64::NAN),
+                    factorizations: r["factorizations"].as_u64().map(|f| f as usize),
+                    per_direction: per_direction(&r["factorizations_per_direction"]),
                 })
                 .collect()
         })

@@ -42,6 +42,13 @@ pub use record::{CycleRecorder, WarmRecord};
 /// Distance over which the lane margin ramps in from the lane edge \[m\].
 pub const MARGIN_RAMP_M: f64 = 20.0;
 
+/// Lateral acceleration the start ramp assumes a car can use to stop moving toward an edge
+/// \[m/s^2\] (`ClosedRoad::window_from`): well under the tires' grip, since turning the
+/// car's course takes yaw first. Without it, a car at the margin heading out at 1-2 m/s
+/// made the plan locally infeasible (all seven failures of three oval laps with the
+/// default mismatch; docs/closed-loop.md).
+pub const ARREST_LATERAL_ACCEL_MPS2: f64 = 4.0;
+
 /// Command-line options of `planner_proc`.
 // clap prints these doc comments as the --help text, which would show the escapes of
 // the unit brackets verbatim: the brackets stay as they are, and rustdoc keeps them as text.
@@ -497,11 +504,12 @@ impl PlannerLoop {
     /// marked as planned) when it lies outside the planner's domain.
     fn start_state(&mut self, state: &VehicleState) -> Option<[f64; NX]> {
         let cy = &mut self.cy;
+        let e_dot = state.x[ix::V] * state.x[ix::DPSI].sin();
         self.sc.road.window_from(
             state.x[ix::S],
-            state.x[ix::E],
+            (state.x[ix::E], e_dot),
             self.ds,
-            (self.margin, MARGIN_RAMP_M),
+            (self.margin, MARGIN_RAMP_M, ARREST_LATERAL_ACCEL_MPS2),
             &mut cy.road,
         );
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds

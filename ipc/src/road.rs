@@ -276,22 +276,26 @@ impl ClosedRoad {
         }
     }
 
-    /// [`Self::window`] for a car at lateral position `e0`: on each side the margin ramps
-    /// in from the car's own distance inside that edge (at most `margin`) rather than
-    /// from 0, so successive plans never lead a car that keeps the margin closer to the
-    /// edge than the margin, while a car already inside it can still be planned for.
-    /// Allocates nothing.
+    /// [`Self::window`] for a car at lateral position `e0` moving sideways at `e_dot`
+    /// (V sin dpsi): on each side the margin ramps in from the car's own distance inside
+    /// that edge (at most `margin`) rather than from 0, so successive plans never lead a
+    /// car that keeps the margin closer to the edge than the margin, while a car already
+    /// inside it can still be planned for. A car moving toward an edge cannot stop at
+    /// once: that side's ramp starts from where its sideways motion can end,
+    /// `e_dot^2 / (2 a_lat)` further out (never past the edge), so the start is plannable
+    /// instead of locally infeasible. Allocates nothing.
     pub fn window_from(
         &self,
         s0: f64,
-        e0: f64,
+        (e0, e_dot): (f64, f64),
         ds: f64,
-        (margin, ramp): (f64, f64),
+        (margin, ramp, a_lat): (f64, f64, f64),
         out: &mut RoadWindow,
     ) {
         let (lo0, hi0) = self.edges(s0);
-        let right0 = (e0 - lo0).clamp(0.0, margin);
-        let left0 = (hi0 - e0).clamp(0.0, margin);
+        let drift = |v: f64| if a_lat > 0.0 { v.max(0.0).powi(2) / (2.0 * a_lat) } else { 0.0 };
+        let right0 = (e0 - drift(-e_dot) - lo0).clamp(0.0, margin);
+        let left0 = (hi0 - e0 - drift(e_dot)).clamp(0.0, margin);
         self.window_with(s0, ds, out, |s| {
             let w = if ramp > 0.0 { (s / ramp).min(1.0) } else { 1.0 };
             (right0 + (margin - right0) * w, left0 + (margin - left0) * w)

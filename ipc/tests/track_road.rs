@@ -97,6 +97,36 @@ fn the_lane_margin_shrinks_the_varying_bounds_after_its_ramp() {
     assert_eq!(w.e_min[0], sc.road.edges(1000.0).0);
 }
 
+/// A car inside the margin and moving toward the edge gets a start ramp from where its
+/// sideways motion can end (e_dot^2 / (2 a_lat) further out, never past the edge); moving
+/// away, from where it is; in both cases the full margin after the ramp.
+#[test]
+fn the_start_ramp_leaves_room_for_a_car_drifting_toward_the_edge() {
+    let oval = load(&RoadArgs::default()).unwrap();
+    let (lo, _) = oval.road.edges(0.0);
+    let e0 = lo + 0.425;
+    let ramp = |e_dot: f64| {
+        let mut w = RoadWindow::default();
+        oval.road
+            .window_from(0.0, (e0, e_dot), 2.5, (0.5, 20.0, 4.0), &mut w);
+        w
+    };
+    let still = ramp(0.0);
+    assert!((still.e_min[0] - e0).abs() < 1e-12);
+    let away = ramp(1.5);
+    assert_eq!(away.e_min, still.e_min);
+    // 1.2 m/s outward: 0.18 m of drift before the ramp.
+    let out = ramp(-1.2);
+    assert!((out.e_min[0] - (e0 - 0.18)).abs() < 1e-12, "{}", out.e_min[0]);
+    assert!(out.e_min[1] < still.e_min[1]);
+    // 3 m/s outward would drift past the edge: the ramp starts at the edge.
+    assert_eq!(ramp(-3.0).e_min[0], lo);
+    for w in [still, away, out] {
+        assert!((w.e_min[8] - (lo + 0.5)).abs() < 1e-12);
+        assert!(w.e_min.iter().all(|&b| b >= lo));
+    }
+}
+
 #[test]
 fn the_road_id_covers_the_profile_bytes() {
     let a = load(&austin()).unwrap();

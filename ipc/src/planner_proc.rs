@@ -42,12 +42,12 @@ pub use record::{CycleRecorder, WarmRecord};
 /// Distance over which the lane margin ramps in from the lane edge \[m\].
 pub const MARGIN_RAMP_M: f64 = 20.0;
 
-/// Lateral acceleration the start ramp assumes a car can use to stop moving toward an edge
-/// \[m/s^2\] (`ClosedRoad::window_from`): well under the tires' grip, since turning the
-/// car's course takes yaw first. Without it, a car at the margin heading out at 1-2 m/s
-/// made the plan locally infeasible (all seven failures of three oval laps with the
-/// default mismatch; docs/closed-loop.md).
-pub const ARREST_LATERAL_ACCEL_MPS2: f64 = 4.0;
+/// Lateral acceleration the start ramp assumes a car uses to stop moving toward an edge
+/// \[m/s^2\] (`ClosedRoad::window_from`; about the car's grip). Without the allowance, a
+/// car at the margin heading out at 1-2 m/s made the plan locally infeasible (all seven
+/// failures of three oval laps with the default mismatch); 4 m/s^2 also solves them but
+/// lets the plans ride closer to the edge (docs/closed-loop.md).
+pub const ARREST_LATERAL_ACCEL_MPS2: f64 = 8.0;
 
 /// Command-line options of `planner_proc`.
 // clap prints these doc comments as the --help text, which would show the escapes of

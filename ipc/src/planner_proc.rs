@@ -27,16 +27,18 @@ use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 
 use crate::clock::monotonic_ns;
 use crate::elog;
-use crate::msg::{Invalid, RunId, Trajectory, VehicleState, HORIZON_N};
+use crate::msg::{Trajectory, VehicleState, HORIZON_N};
 use crate::road::{RoadWindow, Scenario};
 use crate::services::{ipc_err, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
 
 pub mod budget;
+mod intake;
 pub mod publish_policy;
 mod record;
 mod send;
+pub use intake::{LastPlanned, Rejected};
 pub use record::{CycleRecorder, WarmRecord};
 
 /// Distance over which the lane margin ramps in from the lane edge \[m\].
@@ -128,73 +130,6 @@ pub enum PlannerProcError {
     Ipc(#[from] IpcError),
 }
 
-/// Counters of dropped states, by reason.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Rejected {
-    /// Unknown version.
-    pub version: u64,
-    /// Other road.
-    pub road: u64,
-    /// NaN or infinite values.
-    pub non_finite: u64,
-    /// Out of physical range.
-    pub range: u64,
-}
-
-impl Rejected {
-    fn count(&mut self, e: &Invalid) {
-        match e {
-            Invalid::Version { .. } => self.version += 1,
-            Invalid::Road { .. } => self.road += 1,
-            Invalid::NonFinite { .. } | Invalid::NodeNonFinite { .. } => self.non_finite += 1,
-            Invalid::Range { .. }
-            | Invalid::NodeRange { .. }
-            | Invalid::Status(_)
-            | Invalid::Kind(_) => self.range += 1,
-        }
-    }
-
-    /// Total dropped.
-    pub fn total(&self) -> u64 {
-        self.version + self.road + self.non_finite + self.range
-    }
-}
-
-/// The state the planner last planned from (or declined to plan from), keyed by the
-/// publisher's run id and the state's seq: seqs start over with every publisher run, so the
-/// seq alone would take a restarted tracker's state for one already planned.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct LastPlanned {
-    key: Option<(RunId, u64)>,
-    switches: u64,
-}
-
-impl LastPlanned {
-    /// True when `state` (same run id and seq) was the last one planned from.
-    pub fn is_planned(&self, state: &VehicleState) -> bool {
-        self.key == Some((state.run_id, state.seq))
-    }
-
-    /// True when the last state planned from came from `state`'s publisher run.
-    pub fn same_run(&self, state: &VehicleState) -> bool {
-        self.key.is_some_and(|(run, _)| run == state.run_id)
-    }
-
-    /// Records `state` as planned from.
-    pub fn mark(&mut self, state: &VehicleState) {
-        if self.key.map(|(run, _)| run) != Some(state.run_id) {
-            self.switches += 1;
-        }
-        self.key = Some((state.run_id, state.seq));
-    }
-
-    /// How often the planned state's run id changed (the first run counts once): 2 after a
-    /// tracker restart.
-    pub fn run_switches(&self) -> u64 {
-        self.switches
-    }
-}
-
 /// What one planning cycle needs, allocated once.
 struct Cycle {
     planner: Planner<HORIZON_N>,
@@ -204,18 +139,6 @@ struct Cycle {
     /// Previous plan: origin s and whether it is usable for a warm start.
     prev_origin: f64,
     prev_ok: bool,
-}
-
-/// Linear interpolation of the states of `xs` (grid ds) at local s, clamped to the horizon.
-fn interp(xs: &[[f64; NX]], ds: f64, s: f64) -> [f64; NX] {
-    let q = (s / ds).clamp(0.0, HORIZON_N as f64);
-    let k = (q.floor() as usize).min(HORIZON_N - 1);
-    let w = q - k as f64;
-    let mut x = [0.0; NX];
-    for i in 0..NX {
-        x[i] = xs[k][i] + w * (xs[k + 1][i] - xs[k][i]);
-    }
-    x
 }
 
 impl Cycle {

@@ -293,7 +293,13 @@ impl ClosedRoad {
         out: &mut RoadWindow,
     ) {
         let (lo0, hi0) = self.edges(s0);
-        let drift = |v: f64| if a_lat > 0.0 { v.max(0.0).powi(2) / (2.0 * a_lat) } else { 0.0 };
+        let drift = |v: f64| {
+            if a_lat > 0.0 {
+                v.max(0.0).powi(2) / (2.0 * a_lat)
+            } else {
+                0.0
+            }
+        };
         let right0 = (e0 - drift(-e_dot) - lo0).clamp(0.0, margin);
         let left0 = (hi0 - e0 - drift(e_dot)).clamp(0.0, margin);
         self.window_with(s0, ds, out, |s| {

@@ -296,7 +296,8 @@ fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
     x0[ix::VWR] = 20.0;
     let sample = |k: usize, window: &mut RoadWindow| {
         let s = lap - 150.0 + k as f64 * 1.7;
-        sc.road.window_from(s, (0.3, -1.5), ds, (0.5, 20.0, 4.0), window);
+        sc.road
+            .window_from(s, (0.3, -1.5), ds, (0.5, 20.0, 4.0), window);
         sc.spec
             .initial_domain(&window.kappa, &window.e_min, &window.e_max)
             .check(&x0)

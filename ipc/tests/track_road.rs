@@ -117,7 +117,11 @@ fn the_start_ramp_leaves_room_for_a_car_drifting_toward_the_edge() {
     assert_eq!(away.e_min, still.e_min);
     // 1.2 m/s outward: 0.18 m of drift before the ramp.
     let out = ramp(-1.2);
-    assert!((out.e_min[0] - (e0 - 0.18)).abs() < 1e-12, "{}", out.e_min[0]);
+    assert!(
+        (out.e_min[0] - (e0 - 0.18)).abs() < 1e-12,
+        "{}",
+        out.e_min[0]
+    );
     assert!(out.e_min[1] < still.e_min[1]);
     // 3 m/s outward would drift past the edge: the ramp starts at the edge.
     assert_eq!(ramp(-3.0).e_min[0], lo);

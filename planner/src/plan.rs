@@ -12,7 +12,7 @@ use crate::ocp::{InitialState, OcpSpec};
 use crate::trajectory::Trajectory;
 
 mod warm;
-pub use warm::{shift_plan, WarmDuals, WarmOptions, WarmReplan};
+pub use warm::{interp, shift_plan, WarmDuals, WarmOptions, WarmReplan};
 
 /// Start speed of the equilibrium least-squares problem when the initial state is free
 /// (the independent reference starts it at 15 m/s, too).

@@ -18,9 +18,9 @@ use planner::ip::{SolveInfo, Status};
 use planner::model::{ix, NU, NX};
 use planner::plan::choice::{choose, previous_usable, Outcome, PlanKind};
 
-use super::interp;
 use crate::kinds::KindCounts;
 use crate::msg::{RunId, HORIZON_N};
+use planner::plan::interp;
 
 /// The last plan sent as converged or best iterate, and its shifted copy.
 #[derive(Debug, Clone)]

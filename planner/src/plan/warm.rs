@@ -134,9 +134,9 @@ impl WarmBuffers {
     }
 }
 
-/// State `s` (local arc length) of a plan with grid `ds`, linear between nodes, clamped to
-/// the horizon.
-fn interp(xs: &[[f64; NX]], ds: f64, s: f64) -> [f64; NX] {
+/// The state of a plan (`xs`, grid `ds`) at local arc length `s`, linear between nodes,
+/// clamped to the horizon.
+pub fn interp(xs: &[[f64; NX]], ds: f64, s: f64) -> [f64; NX] {
     let n = xs.len() - 1;
     let q = (s / ds).clamp(0.0, n as f64);
     let k = (q.floor() as usize).min(n - 1);

@@ -399,17 +399,17 @@ fn ipopt_factorizations(by_rule: &[(BarrierRule, Vec<StartRun>)], external: &Ext
             .map(|(k, n)| format!("{k}: {n}"))
             .collect();
         let max = r.per_direction.last().map_or(0, |(k, _)| *k);
-        let here = ours.iter().find(|o| o.name == r.case).map_or(
-            "- | - | -".to_string(),
-            |o| {
+        let here = ours
+            .iter()
+            .find(|o| o.name == r.case)
+            .map_or("- | - | -".to_string(), |o| {
                 format!(
                     "{} | {} | {}",
                     o.iterations,
                     o.factorizations.iter().sum::<usize>(),
                     o.factorizations.iter().copied().max().unwrap_or(0)
                 )
-            },
-        );
+            });
         let _ = writeln!(
             s,
             "| {} | {} | {} | {max} | {} | {here} |",

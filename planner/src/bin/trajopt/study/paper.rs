@@ -174,6 +174,7 @@ fn ipopt_rows(quick: bool) -> External {
         .map(|i| format!("S{i:02}"))
         .collect::<Vec<_>>()
         .join(",");
+    let t0 = std::time::Instant::now();
     let mut cmd = Command::new(&py);
     cmd.arg("bench/external/casadi_compare.py")
         .args(["--trajopt", &me.display().to_string(), "--cases", &cases])
@@ -219,13 +220,15 @@ fn ipopt_rows(quick: bool) -> External {
         })
         .unwrap_or_default();
     let what = format!(
-        "{py}, IPOPT mu_strategy adaptive, MUMPS, CasADi {}, median of {}",
+        "{py}, IPOPT mu_strategy adaptive, MUMPS, CasADi {}, median of {}; this run took \
+         {:.0} s before the report's own",
         if quick {
             "interpreted (--no-jit)"
         } else {
             "JIT"
         },
-        if quick { 1 } else { 5 }
+        if quick { 1 } else { 5 },
+        t0.elapsed().as_secs_f64()
     );
     External::Rows(rows, what)
 }

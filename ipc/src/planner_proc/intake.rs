@@ -70,3 +70,40 @@ impl LastPlanned {
         self.switches
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn state(run_id: RunId, seq: u64) -> VehicleState {
+        VehicleState::new(7, seq, 0, [0.0, 15.0, 0.0, 15.0, 0.0, 0.0, 0.0, 3.0, 1.0])
+            .with_run_id(run_id)
+    }
+
+    #[test]
+    fn the_last_planned_state_is_not_planned_again() {
+        let mut last = LastPlanned::default();
+        assert!(!last.is_planned(&state(1, 5)));
+        last.mark(&state(1, 5));
+        assert!(last.is_planned(&state(1, 5)));
+        assert!(!last.is_planned(&state(1, 6)));
+        assert!(last.same_run(&state(1, 6)));
+        assert_eq!(last.run_switches(), 1);
+    }
+
+    #[test]
+    fn a_second_publisher_reusing_seq_values_gets_planned() {
+        let mut last = LastPlanned::default();
+        for seq in 1..=3 {
+            last.mark(&state(1, seq));
+        }
+        // A restarted tracker (new run id) publishes seq 3 again: a new state.
+        assert!(!last.is_planned(&state(2, 3)));
+        assert!(!last.same_run(&state(2, 3)));
+        last.mark(&state(2, 3));
+        assert!(last.is_planned(&state(2, 3)));
+        // Its predecessor's seq 3 is now a different state as well.
+        assert!(!last.is_planned(&state(1, 3)));
+        assert_eq!(last.run_switches(), 2);
+    }
+}

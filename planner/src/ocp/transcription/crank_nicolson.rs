@@ -1,7 +1,7 @@
 //! Crank-Nicolson (trapezoid) defect, A-stable and second order:
 //! x_{k+1} - x_k - ds/2 (f(x_k, u_k; k_ref(s_k)) + f(x_{k+1}, u_k; k_ref(s_{k+1}))) = 0,
 //! each row divided by the nominal of its state. Exact derivatives from the per-point jets
-//! of f at both nodes ([`super::point_form`]); the num-dual oracle stays for checks.
+//! of f at both nodes (`point_form`); the num-dual oracle stays for checks.
 
 use super::one_step::{one_step_scheme, Rule, M, NL_IMPLICIT};
 use super::point_form::PointForm;

@@ -8,7 +8,7 @@
 //! j = 1, 2, then the continuity row x_{k+1} - x_k - ds sum_l b_l f(X_l). u_k is held and
 //! k_ref is linearly interpolated to the stage positions s_k + c_j ds.
 //! Exact derivatives from the per-point jets of f at the stage states
-//! ([`super::point_form`]); the num-dual oracle stays for checks.
+//! (`point_form`); the num-dual oracle stays for checks.
 
 use super::dense::{self, LocalResidual};
 use super::one_step::kappa_at;

@@ -34,7 +34,7 @@
 //! Exact derivatives: the defect is a linear combination of the linear past state terms
 //! and of f at each node of the window, and each f(x_n, u_k) depends on the 10 inputs
 //! (r..dpsi of x_n, u_k) only, so the Jacobian and Hessian are assembled from per-node
-//! jets over 10 variables: the hand-written ones of [`super::point_jets`] (the same as
+//! jets over 10 variables: the hand-written ones of `point_jets` (the same as
 //! implicit Euler's), or num-dual duals under [`super::Derivatives::Oracle`].
 
 use super::point_jets::{physical, scaled_gradient, weighted_hessian, IN_NOMINAL, NIN, NXIN};

@@ -145,8 +145,8 @@ fn pieces(_: &mut Criterion) {}
 /// trajectory (stage states on the chords), hand-written jets against the num-dual oracle.
 fn schemes(c: &mut Criterion) {
     use planner::ocp::{
-        CrankNicolson, DefectScheme, ExplicitRk2, GaussLegendre2, GaussLegendre3, LinearMultistep,
-        Transcription,
+        CrankNicolson, DefectScheme, ExplicitRk2, ExplicitRk4, GaussLegendre2, GaussLegendre3,
+        LinearMultistep, Transcription,
     };
     fn one<S: DefectScheme>(c: &mut Criterion, scheme: S) {
         let (ie, z_ie) = oval_nlp_at_reference();
@@ -177,6 +177,7 @@ fn schemes(c: &mut Criterion) {
     one(c, GaussLegendre2);
     one(c, GaussLegendre3);
     one(c, ExplicitRk2);
+    one(c, ExplicitRk4);
 }
 
 criterion_group!(benches, eval, pieces, schemes);

@@ -284,8 +284,10 @@ fn fast_matches_oracle<S: DefectScheme + Copy>(scheme: S) {
 }
 
 #[test]
-fn hand_written_derivatives_equal_the_oracle_for_every_implicit_scheme() {
+fn hand_written_derivatives_equal_the_oracle_for_every_scheme() {
     fast_matches_oracle(CrankNicolson);
+    fast_matches_oracle(ExplicitRk2);
+    fast_matches_oracle(ExplicitRk4);
     fast_matches_oracle(GaussLegendre2);
     fast_matches_oracle(GaussLegendre3);
     for scheme in [

@@ -174,6 +174,26 @@ pub fn spatial_rows<T: Arith>(
     ]
 }
 
+/// Spatial derivatives f = dx/ds (physical) over any [`Arith`] scalar from r..dpsi of the
+/// state and the controls: the same operations as [`defect_jacobian`], so a jet of it
+/// equals the oracle's (explicit RK differentiates through nested calls of it).
+#[inline(always)]
+pub fn spatial<T: Arith>(p: &VehicleParams, x: &[T; 7], u: &[T; NU], kappa: f64) -> [T; NX] {
+    let [r, v, beta, v_wr, dfz, _, _] = *x;
+    let [taf, tar, kr] = slips(p, r, v, beta, v_wr, u[iu::DELTA]);
+    let [fyf, _] = front(p, taf, dfz, u[iu::TBF]);
+    let [fxr, fyr, _] = rear(p, tar, kr, dfz);
+    let fxf = u[iu::TBF] / p.r_w;
+    spatial_rows(
+        p,
+        x,
+        u[iu::DELTA],
+        u[iu::TCOMB],
+        &[fxf, fyf, fxr, fyr],
+        kappa,
+    )
+}
+
 /// Tire inputs [r, V, beta, V_wr, dFz, delta, T_bf] of a physical (x, u).
 #[inline(always)]
 fn tire_inputs(x: &[f64; NX], u: &[f64; NU]) -> [f64; NT] {

@@ -117,11 +117,11 @@ impl Integrator {
 
     /// The derivative code of the scheme's defect rows: the hand-written jets of f at each
     /// point of [`crate::ocp::fast`] for every scheme whose defect is linear in f at fixed
-    /// points, forward-mode dual numbers (`num-dual`, exact to rounding, evaluated over
-    /// all the interval's variables) for explicit RK, which nests f inside f.
+    /// points, and for explicit RK, which nests f inside f, the lean forward-mode jets of
+    /// [`crate::ocp::jet`] carried through its stages over the 10 inputs of an interval.
     pub fn derivatives(self) -> &'static str {
         match self {
-            Integrator::Rk2 | Integrator::Rk4 => "num-dual",
+            Integrator::Rk2 | Integrator::Rk4 => "jets through the stages",
             _ => "hand-written",
         }
     }

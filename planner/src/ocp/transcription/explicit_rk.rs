@@ -6,9 +6,9 @@
 //! (1 - c) kappa_k + c kappa_{k+1}, i.e. kappa_k / kappa_mid / kappa_{k+1} at the RK
 //! nodes c = 0, 1/2, 1. (The road data is thus second-order accurate between nodes, which
 //! caps RK4's global accuracy on curvature transitions, but never makes it inconsistent.)
-//! Exact derivatives by the num-dual oracle: the stages nest f inside f, so the rows are
-//! not linear in f at fixed points and the per-point jets of the implicit schemes do not
-//! apply (their Hessian would need every component's second derivatives). Neither scheme is A-stable: on the stiff
+//! Exact derivatives from lean jets carried through the stages (`rk_jets`): the stages
+//! nest f inside f, so the rows are not linear in f at fixed points and the per-point
+//! jets of the implicit schemes do not apply; the num-dual oracle stays for checks. Neither scheme is A-stable: on the stiff
 //! vehicle dynamics they need small steps (paper Sec. IV).
 
 use super::one_step::{one_step_scheme, Rule, NL_EXPLICIT};

@@ -18,8 +18,8 @@
 //! defect on interval k. Every scheme whose defect is linear in the states and in f at
 //! points of the interval (implicit Euler, Crank-Nicolson, multistep, Gauss-Legendre) takes
 //! its exact derivatives from the hand-written jets of f at each point (`point_jets`,
-//! `point_form`); explicit RK, which nests f inside f, from the num-dual oracle, which also
-//! checks all the others ([`Derivatives::Oracle`]).
+//! `point_form`); explicit RK, which nests f inside f, from lean jets carried through its
+//! stages (`rk_jets`). The num-dual oracle checks them all ([`Derivatives::Oracle`]).
 //!
 //! The rows are ordered stage by stage: first the initial-condition rows, then for each
 //! interval k = 0..N-1: the scheme's defect rows, the two front friction rows (R9), the two
@@ -48,6 +48,7 @@ mod one_step;
 mod packing;
 mod point_form;
 mod point_jets;
+mod rk_jets;
 mod rows;
 mod scheme;
 mod sparsity;

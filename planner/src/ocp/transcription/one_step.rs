@@ -3,8 +3,9 @@
 //! right-hand side with u_k held over the interval and k_ref linearly interpolated between
 //! the nodes, and the [`DefectScheme`](super::DefectScheme) implementation: values and
 //! patterns from [`super::dense`], derivatives from a [`PointForm`] where the scheme has one
-//! (Crank-Nicolson) and from the num-dual oracle otherwise (explicit RK nests f inside f,
-//! so its rows are not linear in f at fixed points).
+//! (Crank-Nicolson) and from jets through the RK formula otherwise (`rk_jets`: explicit RK
+//! nests f inside f, so its rows are not linear in f at fixed points); the num-dual oracle
+//! on request.
 
 use super::dense::{self, LocalResidual};
 use super::point_form::PointForm;
@@ -18,7 +19,7 @@ use num_dual::DualNum;
 pub(crate) const M: usize = 2 * NX + NU;
 
 /// Which one-step formula of [`steps`] a scheme uses.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Rule {
     /// Trapezoid.
     CrankNicolson,
@@ -71,34 +72,42 @@ pub(crate) fn residual<D: DualNum<Primitive = f64> + Copy>(
     }
 }
 
-/// Jacobian values of interval k: from `form` unless the oracle is asked for.
+/// Jacobian values of interval k: from `form` (implicit schemes) or the RK jets (explicit
+/// ones) unless the oracle is asked for.
 pub(crate) fn jac<R: LocalResidual<M>>(
     r: &R,
-    form: Option<&PointForm<2>>,
+    (rule, form): (Rule, Option<&PointForm<2>>),
     cx: &SchemeContext,
     k: usize,
     z: &[f64],
     vals: &mut [f64],
 ) {
-    match form {
-        Some(f) if !cx.oracle => f.jac(cx, k, z, &cols(&cx.layout, k), vals),
-        _ => dense::jac(r, cx, k, z, vals),
+    match (form, rule) {
+        _ if cx.oracle => dense::jac(r, cx, k, z, vals),
+        (Some(f), _) => f.jac(cx, k, z, &cols(&cx.layout, k), vals),
+        (None, Rule::Rk2 | Rule::Rk4) => super::rk_jets::jac(rule, cx, k, z, vals),
+        (None, Rule::CrankNicolson) => dense::jac(r, cx, k, z, vals),
     }
 }
 
 /// Hessian values of `lambda^T defect_k` over the nonlinear local variables `nl`: from
-/// `form` unless the oracle is asked for.
+/// `form` (implicit schemes, any `nl`) or the RK jets (explicit ones, `nl` =
+/// [`NL_EXPLICIT`]) unless the oracle is asked for.
 pub(crate) fn hess<R: LocalResidual<M>, const L: usize>(
     r: &R,
-    form: Option<&PointForm<2>>,
+    (rule, form): (Rule, Option<&PointForm<2>>),
     cx: &SchemeContext,
     (k, z, nl): (usize, &[f64], &[usize; L]),
     lambda: &[f64],
     vals: &mut [f64],
 ) {
-    match form {
-        Some(f) if !cx.oracle => f.hess(cx, (k, z), (&cols(&cx.layout, k), nl), lambda, vals),
-        _ => dense::hess(r, cx, k, z, nl, lambda, vals),
+    match (form, rule) {
+        _ if cx.oracle => dense::hess(r, cx, k, z, nl, lambda, vals),
+        (Some(f), _) => f.hess(cx, (k, z), (&cols(&cx.layout, k), nl), lambda, vals),
+        (None, Rule::Rk2 | Rule::Rk4) if nl[..] == NL_EXPLICIT[..] => {
+            super::rk_jets::hess(rule, cx, k, z, lambda, vals)
+        }
+        (None, _) => dense::hess(r, cx, k, z, nl, lambda, vals),
     }
 }
 
@@ -169,7 +178,7 @@ macro_rules! one_step_scheme {
                 z: &[f64],
                 vals: &mut [f64],
             ) {
-                $crate::ocp::transcription::one_step::jac(self, $form, cx, k, z, vals)
+                $crate::ocp::transcription::one_step::jac(self, ($rule, $form), cx, k, z, vals)
             }
             fn hess_pattern(
                 &self,
@@ -189,7 +198,7 @@ macro_rules! one_step_scheme {
             ) {
                 $crate::ocp::transcription::one_step::hess(
                     self,
-                    $form,
+                    ($rule, $form),
                     cx,
                     (k, z, &$nl),
                     lambda,

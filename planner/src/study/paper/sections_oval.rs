@@ -170,7 +170,7 @@ pub(super) fn integrators(
         "\nEvery scheme whose defect is linear in the states and in f at fixed points \
          (implicit Euler, BDF, Adams-Moulton, Crank-Nicolson, Gauss-Legendre) takes its exact \
          derivatives from the same hand-written jets of f at each point; explicit RK2 / RK4 \
-         nest f inside f and keep `num-dual` (the derivatives column). The schemes that \
+         nest f inside f and carry lean jets through their stages (the derivatives column). The schemes that \
          couple more than two nodes or carry stage variables (BDF, Adams-Moulton, \
          Gauss-Legendre) are factorized by the sparse LDL^T instead of the Riccati recursion \
          (the backend column): that cost follows from the integrator's coupling and is part \

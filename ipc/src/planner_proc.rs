@@ -210,16 +210,37 @@ impl Ports {
     }
 }
 
+/// How a cycle's solve started.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Start {
+    /// From the cold guess.
+    Cold,
+    /// Warm, from the previous plan moved `shift` metres (the planner's warm buffers and
+    /// `Cycle::guess_x` hold where it started); `fell_back` when the warm solve stalled and
+    /// the plan comes from the cold guess inside the same caps.
+    Warm { shift: f64, fell_back: bool },
+}
+
+impl Start {
+    /// The plan comes from the warm solve (not from its fall-back).
+    fn warm_started(self) -> bool {
+        matches!(
+            self,
+            Start::Warm {
+                fell_back: false,
+                ..
+            }
+        )
+    }
+}
+
 /// What one planning cycle solved: the solve's outcome (`None`: the replan failed) and the
 /// state it planned from. The planner holds the solution ([`Planner::states`],
 /// [`Planner::controls`]).
 struct Solved {
     info: Option<SolveInfo>,
-    /// The plan comes from the warm solve (not from its fall-back).
-    warm_started: bool,
-    /// The shift of the warm start when the cycle took the warm path (with or without a
-    /// fall-back): the planner's warm buffers and `Cycle::guess_x` hold where it started.
-    warm_shift: Option<f64>,
+    /// How the solve started.
+    start: Start,
     /// The start state as planned from (re-referenced and nudged into the bounds).
     x0: [f64; NX],
     /// Track s of the measured state: the plan's origin.
@@ -396,10 +417,9 @@ impl PlannerLoop {
         let t0 = Instant::now();
         let s_track = state.x[ix::S];
         let x0 = self.start_state(state)?;
-        let mut warm_shift = None;
-        let (info, warm_started) = match self.solve(state, x0, s_track, &mut warm_shift) {
-            Some((info, warm)) => (Some(info), warm),
-            None => (None, false),
+        let (info, start) = match self.solve(state, x0, s_track) {
+            Some((info, start)) => (Some(info), start),
+            None => (None, Start::Cold),
         };
         if info.as_ref().is_some_and(|i| !i.status.is_success()) {
             self.failed += 1;
@@ -412,8 +432,7 @@ impl PlannerLoop {
         let solve_time_s = t0.elapsed().as_secs_f64();
         Some(Solved {
             info,
-            warm_started,
-            warm_shift,
+            start,
             x0,
             s_track,
             stamp_in,
@@ -471,16 +490,14 @@ impl PlannerLoop {
 
     /// Solves from `x0` over the sampled window: warm-started from the previous plan when
     /// that is sound and converges, else from the equilibrium. Returns the solve's outcome
-    /// and whether it was warm-started (`warm_shift` says whether the warm path ran);
-    /// `None` (logged, counted, marked as planned) when the equilibrium-started replan
-    /// fails.
+    /// and how it started; `None` (logged, counted, marked as planned) when the
+    /// equilibrium-started replan fails.
     fn solve(
         &mut self,
         state: &VehicleState,
         x0: [f64; NX],
         s_track: f64,
-        warm_shift: &mut Option<f64>,
-    ) -> Option<(SolveInfo, bool)> {
+    ) -> Option<(SolveInfo, Start)> {
         let ds = self.ds;
         let cy = &mut self.cy;
         let shift = s_track - cy.prev_origin;
@@ -502,17 +519,15 @@ impl PlannerLoop {
                 shift,
                 warm_options(self.cold_guess),
             );
-            if r.is_ok() {
-                *warm_shift = Some(shift);
-            }
             match r {
-                Ok(r) if r.fell_back => {
-                    self.cold += 1;
-                    return Some((r.info, false));
-                }
                 Ok(r) => {
-                    self.warm += 1;
-                    return Some((r.info, true));
+                    let fell_back = r.fell_back;
+                    if fell_back {
+                        self.cold += 1;
+                    } else {
+                        self.warm += 1;
+                    }
+                    return Some((r.info, Start::Warm { shift, fell_back }));
                 }
                 Err(e) => elog!("planner: warm replan failed: {e}"),
             }
@@ -525,7 +540,7 @@ impl PlannerLoop {
             x0,
             ReplanGuess::cold(self.cold_guess),
         ) {
-            Ok(i) => Some((i, false)),
+            Ok(i) => Some((i, Start::Cold)),
             Err(e) => {
                 elog!("planner: replan failed: {e}");
                 self.failed += 1;
@@ -544,12 +559,15 @@ impl PlannerLoop {
             return;
         };
         let cy = &self.cy;
-        let warm = solved.warm_shift.map(|shift| WarmRecord {
-            shift,
-            opts: warm_options(self.cold_guess),
-            guess: (&cy.guess_x, &cy.guess_u),
-            duals: cy.planner.warm_duals(),
-        });
+        let warm = match solved.start {
+            Start::Warm { shift, .. } => Some(WarmRecord {
+                shift,
+                opts: warm_options(self.cold_guess),
+                guess: (&cy.guess_x, &cy.guess_u),
+                duals: cy.planner.warm_duals(),
+            }),
+            Start::Cold => None,
+        };
         rec.record(
             (self.cycles, solved.stamp_in),
             &cy.road,

@@ -52,7 +52,15 @@ impl GuessKind {
             GuessKind::RoadSpeed => "road_speed",
         }
     }
-    /// Parses `equilibrium` or `zero`.
+    /// The guess a replanning cycle starts from when asked for this one cold: itself,
+    /// except the zero guess, which is not a replanning start (then the equilibrium).
+    pub fn cold_start(self) -> Self {
+        match self {
+            GuessKind::Zero => GuessKind::Equilibrium,
+            kind => kind,
+        }
+    }
+    /// Parses `equilibrium`, `zero` or `road_speed`.
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "equilibrium" => Some(GuessKind::Equilibrium),

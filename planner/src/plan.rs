@@ -63,7 +63,7 @@ impl ReplanGuess<'_> {
     /// The cold start of a guess kind: [`ReplanGuess::RoadSpeed`] for the road-speed guess,
     /// else [`ReplanGuess::Equilibrium`] (the zero guess is not a replanning start).
     pub fn cold(kind: GuessKind) -> Self {
-        match kind {
+        match kind.cold_start() {
             GuessKind::RoadSpeed => ReplanGuess::RoadSpeed,
             _ => ReplanGuess::Equilibrium,
         }

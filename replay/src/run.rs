@@ -4,10 +4,10 @@
 use std::collections::HashMap;
 use std::time::Instant;
 
-use plan_record::{first_difference, PlanOutput, Recording};
+use plan_record::{first_difference, PlanOutput, PlanWarmStart, Recording};
 use planner::guess::GuessKind;
 use planner::plan::choice::PlanKind;
-use planner::plan::Planner;
+use planner::plan::{Planner, WarmDuals, WarmOptions};
 use planner::record::{plan_output, problem_from, warm_from, RecordedStart};
 use serde::Serialize;
 
@@ -296,18 +296,18 @@ fn replay_all(
                 seq: input.seq,
                 source,
             })?;
+        // The recorded warm start is looked up before the timed solve.
+        let prepared = prepare(rec, input.seq, start)?;
         let t0 = Instant::now();
-        let info = solve(&mut planner, rec, input.seq, start)?;
+        let info = solve(&mut planner, input.seq, prepared)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let replayed = plan_output(input.seq, 0, &info, planner.states(), planner.controls());
         // A solve stopped by other caps than the recorded ones, or by a clock, is compared
         // with nothing.
+        let output = outputs.get(&input.seq);
         let clock_limited = stopped_by_clock(&info, &settings)
-            || outputs
-                .get(&input.seq)
-                .is_some_and(|r| recorded_stopped_by_clock(r, &recorded_settings));
-        let recorded = outputs
-            .get(&input.seq)
+            || output.is_some_and(|r| recorded_stopped_by_clock(r, &recorded_settings));
+        let recorded = output
             .filter(|r| comparable((&info, &settings), (r, &recorded_settings)))
             .filter(|_| start == recorded_start && !clock_limited);
         let difference = recorded.and_then(|r| first_difference(r, &replayed));
@@ -338,25 +338,39 @@ fn replay_all(
     Ok(results)
 }
 
-/// Solves input `seq` from its start: a guess, or the recorded warm start.
-fn solve(
-    planner: &mut Planner<N>,
-    rec: &Recording,
-    seq: u64,
-    start: RecordedStart,
-) -> Result<planner::ip::SolveInfo, ReplayError> {
+/// Where a replayed solve starts: a guess, or a recorded warm start with its options and
+/// multipliers.
+enum Prepared<'a> {
+    Guess(GuessKind),
+    Warm(&'a PlanWarmStart, WarmOptions, WarmDuals<'a>),
+}
+
+/// The start of input `seq`: `start` itself, or its warm start found in the recording.
+fn prepare(rec: &Recording, seq: u64, start: RecordedStart) -> Result<Prepared<'_>, ReplayError> {
     match start {
-        RecordedStart::Guess(guess) => Ok(planner.solve(guess)),
+        RecordedStart::Guess(guess) => Ok(Prepared::Guess(guess)),
         RecordedStart::Warm => {
             let w = rec
                 .warm_start(seq)
                 .ok_or(ReplayError::MissingWarmStart { seq })?;
             let (opts, duals) = warm_from(w)?;
-            planner
-                .solve_warm_from((&w.states, &w.controls), duals, opts)
-                .map(|r| r.info)
-                .map_err(|source| ReplayError::Plan { seq, source })
+            Ok(Prepared::Warm(w, opts, duals))
         }
+    }
+}
+
+/// Solves input `seq` from its prepared start.
+fn solve(
+    planner: &mut Planner<N>,
+    seq: u64,
+    start: Prepared<'_>,
+) -> Result<planner::ip::SolveInfo, ReplayError> {
+    match start {
+        Prepared::Guess(guess) => Ok(planner.solve(guess)),
+        Prepared::Warm(w, opts, duals) => planner
+            .solve_warm_from((&w.states, &w.controls), duals, opts)
+            .map(|r| r.info)
+            .map_err(|source| ReplayError::Plan { seq, source }),
     }
 }
 

@@ -89,7 +89,7 @@ impl PlannerLoop {
             addr_of_mut!((*p).from_state_seq).write(state.seq);
             addr_of_mut!((*p).from_state_stamp_ns).write(state.stamp_ns);
             addr_of_mut!((*p).iterations).write(iterations.min(u32::MAX as usize) as u32);
-            addr_of_mut!((*p).warm_started).write(u32::from(solved.warm_started));
+            addr_of_mut!((*p).warm_started).write(u32::from(solved.start.warm_started()));
             addr_of_mut!((*p).kind).write(kind.code());
             addr_of_mut!((*p).age_cycles).write(age);
             addr_of_mut!((*p).max_violation).write(viol);

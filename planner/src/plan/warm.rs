@@ -246,13 +246,7 @@ impl<const N: usize> Planner<N> {
             to.copy_from_slice(from);
         }
         let t0 = std::time::Instant::now();
-        self.warm_solve(t0, (xs, us), opts, |p| {
-            let kind = match ReplanGuess::cold(opts.cold) {
-                ReplanGuess::RoadSpeed => GuessKind::RoadSpeed,
-                _ => GuessKind::Equilibrium,
-            };
-            Ok(p.solve(kind))
-        })
+        self.warm_solve(t0, (xs, us), opts, |p| Ok(p.solve(opts.cold.cold_start())))
     }
 
     /// The warm solve from `(xs, us)` and the multipliers in the warm buffers under the

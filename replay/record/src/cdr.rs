@@ -357,41 +357,41 @@ pub fn decode_output(data: &[u8]) -> Result<PlanOutput, DecodeError> {
 fn decode_columns(
     d: &mut Decoder<'_>,
 ) -> Result<(Vec<[f64; STATE_LEN]>, Vec<[f64; CONTROL_LEN]>), DecodeError> {
-    let mut states = Vec::new();
-    for (i, field) in STATE_FIELDS.iter().enumerate() {
+    Ok((
+        decode_rows(d, &STATE_FIELDS)?,
+        decode_rows(d, &CONTROL_FIELDS)?,
+    ))
+}
+
+/// K columns named `fields`, one `float64[]` each, as rows of K values; every column must
+/// have the length of the first.
+fn decode_rows<const K: usize>(
+    d: &mut Decoder<'_>,
+    fields: &[&'static str; K],
+) -> Result<Vec<[f64; K]>, DecodeError> {
+    let mut rows = Vec::new();
+    for (i, field) in fields.iter().enumerate() {
         let offset = d.pos;
         let col = d.f64_seq(field)?;
         if i == 0 {
-            states = vec![[0.0; STATE_LEN]; col.len()];
-        } else if col.len() != states.len() {
+            rows = vec![[0.0; K]; col.len()];
+        } else if col.len() != rows.len() {
             return Err(DecodeError::Invalid {
                 field,
                 offset,
-                problem: format!("{} values, but `r` has {}", col.len(), states.len()),
+                problem: format!(
+                    "{} values, but `{}` has {}",
+                    col.len(),
+                    fields[0],
+                    rows.len()
+                ),
             });
         }
-        for (x, v) in states.iter_mut().zip(col) {
+        for (x, v) in rows.iter_mut().zip(col) {
             x[i] = v;
         }
     }
-    let mut controls = Vec::new();
-    for (i, field) in CONTROL_FIELDS.iter().enumerate() {
-        let offset = d.pos;
-        let col = d.f64_seq(field)?;
-        if i == 0 {
-            controls = vec![[0.0; CONTROL_LEN]; col.len()];
-        } else if col.len() != controls.len() {
-            return Err(DecodeError::Invalid {
-                field,
-                offset,
-                problem: format!("{} values, but `delta` has {}", col.len(), controls.len()),
-            });
-        }
-        for (u, v) in controls.iter_mut().zip(col) {
-            u[i] = v;
-        }
-    }
-    Ok((states, controls))
+    Ok(rows)
 }
 
 /// Encodes a warm start (schema [`crate::schema::PLAN_WARM_MSG`]).

@@ -3,8 +3,8 @@
 //! each row divided by the nominal of its state. Exact derivatives from the per-point jets
 //! of f at both nodes (`point_form`); the num-dual oracle stays for checks.
 
-use super::one_step::{one_step_scheme, Rule, M, NL_IMPLICIT};
-use super::point_form::PointForm;
+use super::one_step::{one_step_scheme, FastPath, Rule, M, NL_IMPLICIT};
+use super::point_form::{hessian_positions, PointForm};
 use crate::model::{NU, NX};
 
 /// Crank-Nicolson defect scheme (no stage variables, NX rows per interval).
@@ -20,6 +20,8 @@ const FORM: PointForm<2> = PointForm {
     c: [0.0, 1.0],
     lin: &[[(X1, 1.0), (0, -1.0)]],
     w: &[[0.5, 0.5]],
+    nl: &NL_IMPLICIT,
+    pos: hessian_positions([0, X1], &NL_IMPLICIT),
 };
 
 const _: () = assert!(X1 + NX == M);
@@ -29,5 +31,5 @@ one_step_scheme!(
     Rule::CrankNicolson,
     "crank_nicolson",
     NL_IMPLICIT,
-    Some(&FORM)
+    FastPath::Points(&FORM)
 );

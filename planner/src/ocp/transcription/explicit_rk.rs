@@ -11,8 +11,8 @@
 //! jets of the implicit schemes do not apply; the num-dual oracle stays for checks. Neither scheme is A-stable: on the stiff
 //! vehicle dynamics they need small steps (paper Sec. IV).
 
-use super::one_step::{one_step_scheme, Rule, NL_EXPLICIT};
-use super::point_form::PointForm;
+use super::one_step::{one_step_scheme, FastPath, Rule, NL_EXPLICIT};
+use super::rk_jets::Stages;
 
 /// Explicit midpoint RK2 defect scheme (no stage variables, NX rows per interval).
 #[derive(Debug, Clone, Copy, Default)]
@@ -27,12 +27,12 @@ one_step_scheme!(
     Rule::Rk2,
     "rk2",
     NL_EXPLICIT,
-    None::<&PointForm<2>>
+    FastPath::Stages(Stages::Rk2)
 );
 one_step_scheme!(
     ExplicitRk4,
     Rule::Rk4,
     "rk4",
     NL_EXPLICIT,
-    None::<&PointForm<2>>
+    FastPath::Stages(Stages::Rk4)
 );

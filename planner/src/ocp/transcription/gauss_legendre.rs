@@ -12,7 +12,7 @@
 
 use super::dense::{self, LocalResidual};
 use super::one_step::kappa_at;
-use super::point_form::PointForm;
+use super::point_form::{hessian_positions, PointForm};
 use super::{steps, DefectScheme, SchemeContext};
 use crate::model::{spatial_derivatives, NU, NX};
 use crate::ocp::layout::Layout;
@@ -40,6 +40,8 @@ const FORM2: PointForm<2> = PointForm {
         [(X1, 1.0), (0, -1.0)],
     ],
     w: &[steps::GL2_A[0], steps::GL2_A[1], steps::GL2_B],
+    nl: &NL,
+    pos: hessian_positions([W, W + NX], &NL),
 };
 
 /// The 3-stage rows as a point form: f at the three stage states.
@@ -58,6 +60,8 @@ const FORM3: PointForm<3> = PointForm {
         steps::GL3_A[2],
         steps::GL3_B,
     ],
+    nl: &NL3,
+    pos: hessian_positions([W, W + NX, W + 2 * NX], &NL3),
 };
 
 /// Names of the 27 defect rows.
@@ -166,7 +170,7 @@ impl DefectScheme for GaussLegendre2 {
         if cx.oracle {
             return dense::hess(self, cx, k, z, &NL, lambda, vals);
         }
-        FORM2.hess(cx, (k, z), (&self.cols(&cx.layout, k), &NL), lambda, vals)
+        FORM2.hess(cx, (k, z), &self.cols(&cx.layout, k), lambda, vals)
     }
 
     /// Stage states on the straight line between the nodes: X_j = x_k + c_j (x_{k+1} - x_k).
@@ -310,7 +314,7 @@ impl DefectScheme for GaussLegendre3 {
         if cx.oracle {
             return dense::hess(self, cx, k, z, &NL3, lambda, vals);
         }
-        FORM3.hess(cx, (k, z), (&self.cols(&cx.layout, k), &NL3), lambda, vals)
+        FORM3.hess(cx, (k, z), &self.cols(&cx.layout, k), lambda, vals)
     }
 
     /// Stage states on the straight line between the nodes: X_j = x_k + c_j (x_{k+1} - x_k).

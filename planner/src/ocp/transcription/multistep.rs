@@ -37,11 +37,12 @@
 //! jets over 10 variables: the hand-written ones of `point_jets` (the same as
 //! implicit Euler's), or num-dual duals under [`super::Derivatives::Oracle`].
 
-use super::point_jets::{physical, scaled_gradient, weighted_hessian, IN_NOMINAL, NIN, NXIN};
+use super::point_jets::{physical, scaled_gradient, IN_NOMINAL, NIN, NXIN};
 use super::steps::{MultistepFormula, ADAMS_MOULTON, BDF};
 use super::{DefectScheme, SchemeContext};
 use crate::model::{spatial_derivatives, NU, NX, STATE_NAMES};
 use crate::ocp::ad::{grad, lower_hessian, lower_pairs, seed1, seed2};
+use crate::ocp::fast;
 use crate::ocp::layout::Layout;
 use crate::ocp::scaling::{U_NOMINAL, X_NOMINAL};
 use num_dual::{Dual2SVec64, DualNum};
@@ -272,23 +273,23 @@ impl DefectScheme for LinearMultistep {
     fn hess(&self, cx: &SchemeContext, k: usize, z: &[f64], lambda: &[f64], vals: &mut [f64]) {
         let m = self.formula(k);
         let mut off = 0;
-        for j in 0..=m.steps {
-            if m.b[j] != 0.0 && !cx.oracle {
-                let n = k + 1 - j;
-                let (x, u) = physical(cx, k, z, |i| cx.layout.x(n, i));
-                let w: [f64; NX] =
-                    std::array::from_fn(|i| -cx.ds * m.b[j] * lambda[i] / X_NOMINAL[i]);
-                weighted_hessian(cx, &x, &u, cx.kappa[n], &w)
-                    .write_lower(&IN_NOMINAL, &mut vals[off..off + NHESS]);
-                off += NHESS;
-            } else if m.b[j] != 0.0 {
-                let f = scaled_f(cx, k, k + 1 - j, z, seed2::<NIN>);
+        for j in (0..=m.steps).filter(|&j| m.b[j] != 0.0) {
+            let n = k + 1 - j;
+            let block = &mut vals[off..off + NHESS];
+            off += NHESS;
+            if cx.oracle {
+                let f = scaled_f(cx, k, n, z, seed2::<NIN>);
                 let mut acc = Dual2SVec64::<NIN>::from_re(0.0);
                 for i in 0..NX {
                     acc += f[i] * (-cx.ds * m.b[j] * lambda[i]);
                 }
-                lower_hessian(&acc, &mut vals[off..off + NHESS]);
-                off += NHESS;
+                lower_hessian(&acc, block);
+            } else {
+                let (x, u) = physical(cx, k, z, |i| cx.layout.x(n, i));
+                let w: [f64; NX] =
+                    std::array::from_fn(|i| -cx.ds * m.b[j] * lambda[i] / X_NOMINAL[i]);
+                fast::defect_hessian(cx.vehicle, &x, &u, cx.kappa[n], &w)
+                    .write_lower(&IN_NOMINAL, block);
             }
         }
     }

@@ -9,6 +9,7 @@
 
 use super::dense::{self, LocalResidual};
 use super::point_form::PointForm;
+use super::rk_jets::{self, Stages};
 use super::{steps, SchemeContext};
 use crate::model::{spatial_derivatives, NU, NX};
 use crate::ocp::layout::Layout;
@@ -19,7 +20,7 @@ use num_dual::DualNum;
 pub(crate) const M: usize = 2 * NX + NU;
 
 /// Which one-step formula of [`steps`] a scheme uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy)]
 pub(crate) enum Rule {
     /// Trapezoid.
     CrankNicolson,
@@ -72,42 +73,45 @@ pub(crate) fn residual<D: DualNum<Primitive = f64> + Copy>(
     }
 }
 
-/// Jacobian values of interval k: from `form` (implicit schemes) or the RK jets (explicit
-/// ones) unless the oracle is asked for.
+/// The fast derivatives of a single-step scheme.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum FastPath {
+    /// Linear in f at fixed points (Crank-Nicolson): per-point jets.
+    Points(&'static PointForm<2>),
+    /// Explicit RK: jets carried through the stages (Hessian over [`NL_EXPLICIT`]).
+    Stages(Stages),
+}
+
+/// Jacobian values of interval k: from the scheme's fast path unless the oracle is asked
+/// for.
 pub(crate) fn jac<R: LocalResidual<M>>(
     r: &R,
-    (rule, form): (Rule, Option<&PointForm<2>>),
+    fast: FastPath,
     cx: &SchemeContext,
-    k: usize,
-    z: &[f64],
+    (k, z): (usize, &[f64]),
     vals: &mut [f64],
 ) {
-    match (form, rule) {
+    match fast {
         _ if cx.oracle => dense::jac(r, cx, k, z, vals),
-        (Some(f), _) => f.jac(cx, k, z, &cols(&cx.layout, k), vals),
-        (None, Rule::Rk2 | Rule::Rk4) => super::rk_jets::jac(rule, cx, k, z, vals),
-        (None, Rule::CrankNicolson) => dense::jac(r, cx, k, z, vals),
+        FastPath::Points(f) => f.jac(cx, k, z, &cols(&cx.layout, k), vals),
+        FastPath::Stages(st) => rk_jets::jac(st, cx, k, z, vals),
     }
 }
 
-/// Hessian values of `lambda^T defect_k` over the nonlinear local variables `nl`: from
-/// `form` (implicit schemes, any `nl`) or the RK jets (explicit ones, `nl` =
-/// [`NL_EXPLICIT`]) unless the oracle is asked for.
+/// Hessian values of `lambda^T defect_k` over the nonlinear local variables `nl` (those of
+/// the fast path's pattern): from the fast path unless the oracle is asked for.
 pub(crate) fn hess<R: LocalResidual<M>, const L: usize>(
     r: &R,
-    (rule, form): (Rule, Option<&PointForm<2>>),
+    fast: FastPath,
     cx: &SchemeContext,
     (k, z, nl): (usize, &[f64], &[usize; L]),
     lambda: &[f64],
     vals: &mut [f64],
 ) {
-    match (form, rule) {
+    match fast {
         _ if cx.oracle => dense::hess(r, cx, k, z, nl, lambda, vals),
-        (Some(f), _) => f.hess(cx, (k, z), (&cols(&cx.layout, k), nl), lambda, vals),
-        (None, Rule::Rk2 | Rule::Rk4) if nl[..] == NL_EXPLICIT[..] => {
-            super::rk_jets::hess(rule, cx, k, z, lambda, vals)
-        }
-        (None, _) => dense::hess(r, cx, k, z, nl, lambda, vals),
+        FastPath::Points(f) => f.hess(cx, (k, z), &cols(&cx.layout, k), lambda, vals),
+        FastPath::Stages(st) => rk_jets::hess(st, cx, k, z, lambda, vals),
     }
 }
 
@@ -118,9 +122,9 @@ pub(crate) const NL_IMPLICIT: [usize; 17] =
     [0, 1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18];
 
 /// Implements [`DefectScheme`](super::DefectScheme) and the oracle residual for a unit
-/// struct of a single-step scheme; `$form` is its `Option<&PointForm<2>>`.
+/// struct of a single-step scheme; `$fast` is its [`FastPath`].
 macro_rules! one_step_scheme {
-    ($ty:ty, $rule:expr, $name:expr, $nl:expr, $form:expr) => {
+    ($ty:ty, $rule:expr, $name:expr, $nl:expr, $fast:expr) => {
         impl
             $crate::ocp::transcription::dense::LocalResidual<
                 { $crate::ocp::transcription::one_step::M },
@@ -178,7 +182,7 @@ macro_rules! one_step_scheme {
                 z: &[f64],
                 vals: &mut [f64],
             ) {
-                $crate::ocp::transcription::one_step::jac(self, ($rule, $form), cx, k, z, vals)
+                $crate::ocp::transcription::one_step::jac(self, $fast, cx, (k, z), vals)
             }
             fn hess_pattern(
                 &self,
@@ -198,7 +202,7 @@ macro_rules! one_step_scheme {
             ) {
                 $crate::ocp::transcription::one_step::hess(
                     self,
-                    ($rule, $form),
+                    $fast,
                     cx,
                     (k, z, &$nl),
                     lambda,

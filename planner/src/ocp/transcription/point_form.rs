@@ -11,9 +11,10 @@
 //! num-dual duals over all local variables.
 
 use super::one_step::kappa_at;
-use super::point_jets::{add_lower, physical, scaled_gradient, weighted_hessian, NIN, NXIN};
+use super::point_jets::{add_lower, physical, scaled_gradient, NIN, NXIN};
 use super::SchemeContext;
 use crate::model::NX;
+use crate::ocp::fast;
 use crate::ocp::scaling::X_NOMINAL;
 
 /// The rows of a scheme as linear terms and f weights (see the module docs).
@@ -27,6 +28,40 @@ pub(crate) struct PointForm<const P: usize> {
     pub lin: &'static [[(usize, f64); 2]],
     /// f weight of each point in each row block.
     pub w: &'static [[f64; P]],
+    /// The local variables of the Hessian pattern, in pattern order (those entering
+    /// nonlinearly).
+    pub nl: &'static [usize],
+    /// Position in `nl` of input l of each point ([`hessian_positions`]).
+    pub pos: [[usize; NIN]; P],
+}
+
+/// Position in `nl` of input l (r..dpsi of the point's state, then u_k) of each point whose
+/// state sits at local offset `point_off[p]`; evaluated when a form is defined, so an input
+/// missing from `nl` fails the build.
+pub(crate) const fn hessian_positions<const P: usize>(
+    point_off: [usize; P],
+    nl: &[usize],
+) -> [[usize; NIN]; P] {
+    let mut out = [[0; NIN]; P];
+    let mut p = 0;
+    while p < P {
+        let mut l = 0;
+        while l < NIN {
+            let c = local_col(point_off[p], l);
+            let mut q = 0;
+            while q < nl.len() && nl[q] != c {
+                q += 1;
+            }
+            assert!(
+                q < nl.len(),
+                "an input of a point is not among the nonlinear variables"
+            );
+            out[p][l] = q;
+            l += 1;
+        }
+        p += 1;
+    }
+    out
 }
 
 /// Local offset of u_k among the M local variables (after x_k).
@@ -34,7 +69,7 @@ const U_OFF: usize = NX;
 
 /// Local column of input l (0..7 state, 7..10 control) of the point at state offset `off`.
 #[inline(always)]
-fn local_col(off: usize, l: usize) -> usize {
+const fn local_col(off: usize, l: usize) -> usize {
     if l < NXIN {
         off + l
     } else {
@@ -82,16 +117,16 @@ impl<const P: usize> PointForm<P> {
     }
 
     /// Dense lower-triangle Hessian of `lambda^T defect` over the nonlinear local variables
-    /// `nl` (indices into the local variables `cols`, in pattern order).
+    /// `nl` (in pattern order; `cols` are the global columns of the local variables).
     pub fn hess(
         &self,
         cx: &SchemeContext,
         (k, z): (usize, &[f64]),
-        (cols, nl): (&[usize], &[usize]),
+        cols: &[usize],
         lambda: &[f64],
         vals: &mut [f64],
     ) {
-        let l = nl.len();
+        let l = self.nl.len();
         vals[..l * (l + 1) / 2].fill(0.0);
         for p in 0..P {
             let mut w = [0.0; NX];
@@ -103,12 +138,8 @@ impl<const P: usize> PointForm<P> {
                 *wi = -cx.ds * s / X_NOMINAL[i];
             }
             let pt = self.point(cx, k, z, cols, p);
-            let h = weighted_hessian(cx, &pt.x, &pt.u, pt.kappa, &w);
-            let pos: [usize; NIN] = std::array::from_fn(|li| {
-                let c = local_col(self.point_off[p], li);
-                nl.iter().position(|&v| v == c).unwrap_or(usize::MAX)
-            });
-            add_lower(&h, &pos, vals);
+            let h = fast::defect_hessian(cx.vehicle, &pt.x, &pt.u, pt.kappa, &w);
+            add_lower(&h, &self.pos[p], vals);
         }
     }
 }

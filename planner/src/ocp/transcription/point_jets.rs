@@ -6,7 +6,8 @@
 //! `sum_p a_p y_p - ds sum_p b_p f(y_p, u_k; k_ref(p))` (implicit Euler, Crank-Nicolson,
 //! the linear multistep formulas, Gauss-Legendre collocation), takes its Jacobian from the
 //! gradient of f at each point and the Hessian of `lambda^T defect` from one weighted
-//! Hessian per point, `sum_i w_i f_i` with `w_i = -ds sum_rows lambda b_p / nominal_i`.
+//! Hessian per point ([`fast::defect_hessian`]), `sum_i w_i f_i` with
+//! `w_i = -ds sum_rows lambda b_p / nominal_i`.
 //! f depends on the 10 inputs r..dpsi of the point's state and u_k only (not on s or t).
 
 use super::SchemeContext;
@@ -61,19 +62,6 @@ pub(crate) fn scaled_gradient(
     std::array::from_fn(|i| std::array::from_fn(|l| f[i].g[l] * IN_NOMINAL[l] / X_NOMINAL[i]))
 }
 
-/// Hessian jet of `sum_i w_i f_i` (physical f, `w_s` ignored: f_s = 1) at one point; the
-/// entries over scaled inputs are `h[a][b] IN_NOMINAL[a] IN_NOMINAL[b]`.
-#[inline(always)]
-pub(crate) fn weighted_hessian(
-    cx: &SchemeContext,
-    x: &[f64; NX],
-    u: &[f64; NU],
-    kappa: f64,
-    w: &[f64; NX],
-) -> D2<NIN> {
-    fast::defect_hessian(cx.vehicle, x, u, kappa, w)
-}
-
 /// Index of the lower-triangle entry (a, b) (either order) in row-major order over a >= b.
 #[inline(always)]
 pub(crate) fn tri(a: usize, b: usize) -> usize {
@@ -81,8 +69,9 @@ pub(crate) fn tri(a: usize, b: usize) -> usize {
     hi * (hi + 1) / 2 + lo
 }
 
-/// Adds the scaled Hessian `h` of one point into a dense lower triangle whose variable
-/// order places input l of the point at position `pos[l]`.
+/// Adds the Hessian `h` of one point (the jet of [`fast::defect_hessian`], physical inputs)
+/// scaled to the scaled inputs into a dense lower triangle whose variable order places
+/// input l of the point at position `pos[l]`.
 #[inline(always)]
 pub(crate) fn add_lower(h: &D2<NIN>, pos: &[usize; NIN], out: &mut [f64]) {
     for a in 0..NIN {

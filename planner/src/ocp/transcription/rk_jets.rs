@@ -6,7 +6,7 @@
 //! Jacobian, one over second-order jets the Hessian of `lambda^T defect`; the values and
 //! patterns stay those of [`super::dense`] (the num-dual oracle's).
 
-use super::one_step::{kappa_at, Rule, M};
+use super::one_step::{kappa_at, M};
 use super::point_jets::{NIN, NXIN};
 use super::SchemeContext;
 use crate::model::{NU, NX};
@@ -14,17 +14,33 @@ use crate::ocp::fast::spatial;
 use crate::ocp::jet::{Arith, D1, D2};
 use crate::ocp::scaling::{U_NOMINAL, X_NOMINAL};
 
-/// The increment Phi of `rule` from x_k's r..dpsi and u_k (physical, as jets).
-fn increment<T: Arith>(rule: Rule, cx: &SchemeContext, k: usize, x: [T; 7], u: [T; NU]) -> [T; NX] {
+/// Which explicit RK formula.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Stages {
+    /// Explicit midpoint.
+    Rk2,
+    /// Classical RK4.
+    Rk4,
+}
+
+/// The increment Phi of `stages` from x_k's r..dpsi and u_k (physical, as jets), the
+/// formulas of `steps::rk2_midpoint` and `steps::rk4`.
+fn increment<T: Arith>(
+    stages: Stages,
+    cx: &SchemeContext,
+    k: usize,
+    x: [T; 7],
+    u: [T; NU],
+) -> [T; NX] {
     let h = cx.ds;
     let f = |y: &[T; 7], c: f64| spatial(cx.vehicle, y, &u, kappa_at(cx.kappa, k, c));
     let step = |a: f64, d: &[T; NX]| -> [T; 7] { std::array::from_fn(|i| x[i] + d[i] * a) };
-    match rule {
-        Rule::Rk2 => {
+    match stages {
+        Stages::Rk2 => {
             let k1 = f(&x, 0.0);
             f(&step(0.5 * h, &k1), 0.5)
         }
-        Rule::Rk4 | Rule::CrankNicolson => {
+        Stages::Rk4 => {
             let k1 = f(&x, 0.0);
             let k2 = f(&step(0.5 * h, &k1), 0.5);
             let k3 = f(&step(0.5 * h, &k2), 0.5);
@@ -49,9 +65,9 @@ fn inputs<T: Arith>(
 }
 
 /// Dense Jacobian values of interval k (row-major over x_k, u_k, x_{k+1}).
-pub(crate) fn jac(rule: Rule, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
+pub(crate) fn jac(stages: Stages, cx: &SchemeContext, k: usize, z: &[f64], vals: &mut [f64]) {
     let (x, u) = inputs(cx, k, z, D1::<NIN>::var);
-    let phi = increment(rule, cx, k, x, u);
+    let phi = increment(stages, cx, k, x, u);
     vals[..NX * M].fill(0.0);
     for (i, p) in phi.iter().enumerate() {
         let row = &mut vals[i * M..(i + 1) * M];
@@ -68,7 +84,7 @@ pub(crate) fn jac(rule: Rule, cx: &SchemeContext, k: usize, z: &[f64], vals: &mu
 /// Lower-triangle Hessian of `lambda^T defect_k` over the 10 inputs, in the order of
 /// `one_step::NL_EXPLICIT` (r..dpsi of x_k, then u_k).
 pub(crate) fn hess(
-    rule: Rule,
+    stages: Stages,
     cx: &SchemeContext,
     k: usize,
     z: &[f64],
@@ -76,7 +92,7 @@ pub(crate) fn hess(
     vals: &mut [f64],
 ) {
     let (x, u) = inputs(cx, k, z, D2::<NIN>::var);
-    let phi = increment(rule, cx, k, x, u);
+    let phi = increment(stages, cx, k, x, u);
     let mut acc = D2::<NIN>::cst(0.0);
     for (i, p) in phi.iter().enumerate() {
         acc = acc + *p * (-cx.ds * lambda[i] / X_NOMINAL[i]);

@@ -21,13 +21,13 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use plan_record::now_ns;
 use planner::guess::GuessKind;
-use planner::ip::{SolveInfo, Status};
+use planner::ip::SolveInfo;
 use planner::model::{ix, NU, NX};
 use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 
 use crate::clock::monotonic_ns;
 use crate::elog;
-use crate::msg::{Trajectory, VehicleState, HORIZON_N};
+use crate::msg::{RunId, Trajectory, VehicleState, HORIZON_N};
 use crate::road::{RoadWindow, Scenario};
 use crate::services::{ipc_err, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
@@ -37,6 +37,7 @@ pub mod budget;
 mod intake;
 pub mod publish_policy;
 mod record;
+mod relaxed;
 mod send;
 pub use intake::{LastPlanned, Rejected};
 pub use record::{CycleRecorder, WarmRecord};
@@ -89,6 +90,19 @@ pub struct PlannerArgs {
     /// Lane margin the plan keeps from each edge [m] (room for tracking error).
     #[arg(long, default_value_t = 0.5)]
     pub lane_margin_m: f64,
+    /// Lane margin of a relaxed plan [m] (capped at --lane-margin-m): after a cycle without a
+    /// plan of its own, the next cycles on a closed road plan with this margin and the tire
+    /// saturation bound --relaxed-saturation (docs/closed-loop.md).
+    #[arg(long, default_value_t = 0.2)]
+    pub relaxed_margin_m: f64,
+    /// Tire saturation bound of a relaxed plan (sigma - sigma_sl <= this; at least the
+    /// vehicle file's eps_sat).
+    #[arg(long, default_value_t = 0.05)]
+    pub relaxed_saturation: f64,
+    /// Relaxed cycles in a row that sent their own plan before the nominal problem resumes
+    /// (0: never relax).
+    #[arg(long, default_value_t = 10)]
+    pub relaxed_cycles: u32,
     /// Fraction of the vehicle file's tire-road friction the plans use (0.5 to 1): the
     /// grip left over is the tracker's authority to correct errors and the margin for a
     /// road that grips less than the file says (docs/plant-and-tracker.md).
@@ -136,24 +150,35 @@ struct Cycle {
     road: RoadWindow,
     guess_x: Vec<[f64; NX]>,
     guess_u: Vec<[f64; NU]>,
-    /// Previous plan: origin s and whether it is usable for a warm start.
-    prev_origin: f64,
-    prev_ok: bool,
+    /// The warm start's source (the last successful solve, [`Planner::warm_source`]):
+    /// its origin s and the publisher run of the state it started from.
+    src_origin: f64,
+    src_run: Option<RunId>,
+    /// The relaxed problem (`None`: never relaxed) and whether this cycle solves it.
+    relaxed: Option<relaxed::Relaxed>,
+    relaxed_now: bool,
 }
 
 impl Cycle {
-    /// Builds the guess from the previous solution shifted by `shift` metres
-    /// ([`shift_plan`]; allocates nothing).
-    fn shifted_guess(&mut self, shift: f64, x0: &[f64; NX], ds: f64) {
-        shift_plan(
-            self.planner.states(),
-            self.planner.controls(),
-            ds,
-            shift,
-            x0,
-            &mut self.guess_x,
-            &mut self.guess_u,
-        );
+    /// Builds the guess from the last successful solution shifted by `shift` metres
+    /// ([`shift_plan`]; allocates nothing). False when no solve has succeeded yet.
+    fn shifted_guess(&mut self, shift: f64, x0: &[f64; NX], ds: f64) -> bool {
+        let Some((xs, us)) = self.planner.warm_source() else {
+            return false;
+        };
+        shift_plan(xs, us, ds, shift, x0, &mut self.guess_x, &mut self.guess_u);
+        true
+    }
+
+    /// Switches the planner to the relaxed problem's saturation bound or back (the lane
+    /// margin comes with the road window).
+    fn set_relaxed(&mut self, relaxed: bool) {
+        self.relaxed_now = relaxed;
+        let Some(r) = &self.relaxed else { return };
+        let eps = r.eps_sat[usize::from(relaxed)];
+        if let Err(e) = self.planner.set_saturation_bound(eps) {
+            elog!("planner: cannot set the saturation bound {eps}: {e}");
+        }
     }
 }
 
@@ -301,6 +326,18 @@ impl PlannerLoop {
                 "--lane-margin-m must be >= 0".into(),
             ));
         }
+        if args.relaxed_margin_m.is_nan() || args.relaxed_margin_m < 0.0 {
+            return Err(PlannerProcError::Setup(format!(
+                "--relaxed-margin-m {}: must be >= 0",
+                args.relaxed_margin_m
+            )));
+        }
+        if !(0.0..=1.0).contains(&args.relaxed_saturation) {
+            return Err(PlannerProcError::Setup(format!(
+                "--relaxed-saturation {}: must be in [0, 1]",
+                args.relaxed_saturation
+            )));
+        }
         if !(0.5..=1.0).contains(&args.friction_scale) {
             return Err(PlannerProcError::Setup(format!(
                 "--friction-scale {}: must be in [0.5, 1]",
@@ -331,12 +368,32 @@ impl PlannerLoop {
             planner.solver().workspace().n,
             planner.solver().workspace().m,
         );
+        // Relaxed plans on closed roads only: an obstacle scenario's constraints are what
+        // its run tests.
+        let relaxed = (args.relaxed_cycles > 0 && sc.road.is_closed()).then(|| {
+            relaxed::Relaxed::new(
+                (sc.spec.vehicle.eps_sat, args.relaxed_saturation),
+                args.relaxed_margin_m.min(args.lane_margin_m),
+                args.relaxed_cycles,
+            )
+        });
+        let relaxed_spec = relaxed.as_ref().map(|r| {
+            let mut spec = sc.spec.clone();
+            spec.vehicle.eps_sat = r.eps_sat[1];
+            spec
+        });
         let recorder = match &args.record {
             Some(path) => Some(
-                CycleRecorder::create(path, &sc.spec, &recorded_settings, cold_guess, dims)
-                    .map_err(|e| {
-                        PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
-                    })?,
+                CycleRecorder::create(
+                    path,
+                    (&sc.spec, relaxed_spec.as_ref()),
+                    &recorded_settings,
+                    cold_guess,
+                    dims,
+                )
+                .map_err(|e| {
+                    PlannerProcError::Setup(format!("--record {}: {e}", path.display()))
+                })?,
             ),
             None => None,
         };
@@ -345,8 +402,10 @@ impl PlannerLoop {
             road: RoadWindow::default(),
             guess_x: vec![[0.0; NX]; HORIZON_N + 1],
             guess_u: vec![[0.0; NU]; HORIZON_N],
-            prev_origin: 0.0,
-            prev_ok: false,
+            src_origin: 0.0,
+            src_run: None,
+            relaxed,
+            relaxed_now: false,
         };
         Ok(Self {
             sc,
@@ -409,13 +468,16 @@ impl PlannerLoop {
     }
 
     /// Plans from `state`: samples the road window, nudges the start state into the
-    /// bounds, checks the domain and solves (warm, then from the equilibrium). `None` when
+    /// bounds, checks the domain and solves (warm, then from the equilibrium; the relaxed
+    /// problem from the cold guess after a cycle without a plan of its own). `None` when
     /// nothing was planned (a state outside the domain); otherwise what was solved,
     /// converged or not (`info` is `None` when the replan failed).
     fn plan_cycle(&mut self, state: &VehicleState) -> Option<Solved> {
         let stamp_in = now_ns();
         let t0 = Instant::now();
         let s_track = state.x[ix::S];
+        let relaxed = self.cy.relaxed.as_ref().is_some_and(|r| r.active());
+        self.cy.set_relaxed(relaxed);
         let x0 = self.start_state(state)?;
         let (info, start) = match self.solve(state, x0, s_track) {
             Some((info, start)) => (Some(info), start),
@@ -424,10 +486,11 @@ impl PlannerLoop {
         if info.as_ref().is_some_and(|i| !i.status.is_success()) {
             self.failed += 1;
         }
-        self.cy.prev_ok = info
-            .as_ref()
-            .is_some_and(|i| matches!(i.status, Status::Optimal | Status::Acceptable));
-        self.cy.prev_origin = s_track;
+        // A successful solve is the next warm start's source (`Planner::warm_source`).
+        if info.as_ref().is_some_and(|i| i.status.is_success()) {
+            self.cy.src_origin = s_track;
+            self.cy.src_run = Some(state.run_id);
+        }
         self.planned.mark(state);
         let solve_time_s = t0.elapsed().as_secs_f64();
         Some(Solved {
@@ -447,11 +510,15 @@ impl PlannerLoop {
     fn start_state(&mut self, state: &VehicleState) -> Option<[f64; NX]> {
         let cy = &mut self.cy;
         let e_dot = state.x[ix::V] * state.x[ix::DPSI].sin();
+        let margin = match &cy.relaxed {
+            Some(r) if cy.relaxed_now => r.margin,
+            _ => self.margin,
+        };
         self.sc.road.window_from(
             state.x[ix::S],
             (state.x[ix::E], e_dot),
             self.ds,
-            (self.margin, MARGIN_RAMP_M, ARREST_LATERAL_ACCEL_MPS2),
+            (margin, MARGIN_RAMP_M, ARREST_LATERAL_ACCEL_MPS2),
             &mut cy.road,
         );
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds
@@ -481,17 +548,17 @@ impl PlannerLoop {
                     self.outside
                 );
             }
-            cy.prev_ok = false;
             self.planned.mark(state);
             return None;
         }
         Some(x0)
     }
 
-    /// Solves from `x0` over the sampled window: warm-started from the previous plan when
-    /// that is sound and converges, else from the equilibrium. Returns the solve's outcome
-    /// and how it started; `None` (logged, counted, marked as planned) when the
-    /// equilibrium-started replan fails.
+    /// Solves from `x0` over the sampled window: warm-started from the last successful
+    /// plan when that is sound (even after failed cycles: a cold start on a track takes
+    /// several times a warm one's iterations), else from the cold guess. Returns the
+    /// solve's outcome and how it started; `None` (logged, counted, marked as planned) when
+    /// the cold replan fails.
     fn solve(
         &mut self,
         state: &VehicleState,
@@ -500,15 +567,14 @@ impl PlannerLoop {
     ) -> Option<(SolveInfo, Start)> {
         let ds = self.ds;
         let cy = &mut self.cy;
-        let shift = s_track - cy.prev_origin;
-        // A warm start shifts the previous plan, which belongs to the same publisher run only.
+        let shift = s_track - cy.src_origin;
+        // A warm start shifts the last good plan, which belongs to the same publisher run
+        // only.
         let sound = self.warm_start
-            && cy.prev_ok
-            && self.planned.same_run(state)
+            && cy.src_run == Some(state.run_id)
             && shift >= 0.0
             && shift < 0.5 * HORIZON_N as f64 * ds;
-        if sound {
-            cy.shifted_guess(shift, &x0, ds);
+        if sound && cy.shifted_guess(shift, &x0, ds) {
             // Primal and dual, falling back to the equilibrium inside the same caps.
             let r = cy.planner.replan_warm(
                 &cy.road.kappa,
@@ -544,7 +610,6 @@ impl PlannerLoop {
             Err(e) => {
                 elog!("planner: replan failed: {e}");
                 self.failed += 1;
-                cy.prev_ok = false;
                 self.planned.mark(state);
                 None
             }
@@ -570,7 +635,7 @@ impl PlannerLoop {
         };
         rec.record(
             (self.cycles, solved.stamp_in),
-            &cy.road,
+            (&cy.road, cy.relaxed_now),
             solved.x0,
             info,
             (cy.planner.states(), cy.planner.controls()),
@@ -641,6 +706,8 @@ impl PlannerLoop {
             "warm_starts": warm,
             "equilibrium_starts": cold,
             "not_converged": failed,
+            "relaxed_plans": self.cy.relaxed.as_ref().map_or(0, |r| r.sent),
+            "relaxed_episodes": self.cy.relaxed.as_ref().map_or(0, |r| r.episodes),
             "states_received": self.states_received,
             "states_rejected": rejected.total(),
             "states_outside_domain": outside,

@@ -134,9 +134,12 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("cycle.mcap");
     let ws = planner.solver().workspace();
+    // Every third plan is recorded as a relaxed one (a raised saturation bound).
+    let mut relaxed = sc.spec.clone();
+    relaxed.vehicle.eps_sat = 0.05;
     let rec = CycleRecorder::create(
         &file,
-        &sc.spec,
+        (&sc.spec, Some(&relaxed)),
         &sc.settings,
         planner::guess::GuessKind::Equilibrium,
         (ws.n, ws.m),
@@ -154,7 +157,8 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
             guess: (xs, us),
             duals: planner.warm_duals(),
         });
-        let queued = rec.record((seq, 1_000 + seq), window, *x0, &info, (xs, us), warm);
+        let problem = (&*window, seq % 3 == 2);
+        let queued = rec.record((seq, 1_000 + seq), problem, *x0, &info, (xs, us), warm);
         // One plan per millisecond at most, so the writer keeps up and nothing is dropped.
         std::thread::sleep(Duration::from_millis(1));
         queued
@@ -179,7 +183,8 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     let back = plan_record::Recording::read(&file).unwrap();
     assert!(back.complete());
     let (input, output) = (back.inputs.last().unwrap(), back.outputs.last().unwrap());
-    let mut spec = sc.spec.clone();
+    // Plan 104 is a relaxed one.
+    let mut spec = relaxed.clone();
     spec.kappa = window.kappa.to_vec();
     spec.e_min = window.e_min.to_vec();
     spec.e_max = window.e_max.to_vec();
@@ -188,6 +193,15 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
     assert_eq!(input, &fresh);
     let fresh = plan_output(104, output.stamp_ns, &info, xs, us);
     assert_eq!(output, &fresh);
+    for input in &back.inputs {
+        let (spec, _, _) = planner::record::problem_from(input).unwrap();
+        let eps = if input.seq % 3 == 2 {
+            0.05
+        } else {
+            sc.spec.vehicle.eps_sat
+        };
+        assert_eq!(spec.vehicle.eps_sat, eps, "plan {}", input.seq);
+    }
     let warm = back.warm_starts.last().expect("warm starts were recorded");
     assert_eq!(warm.seq % 2, 1);
     assert_eq!((warm.states.len(), warm.y.len()), (xs.len(), ws.m));

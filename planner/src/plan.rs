@@ -12,7 +12,7 @@ use crate::ocp::{InitialState, OcpSpec};
 use crate::trajectory::Trajectory;
 
 mod warm;
-pub use warm::{interp, shift_plan, WarmDuals, WarmOptions, WarmReplan};
+pub use warm::{interp, shift_plan, PlanSlices, WarmDuals, WarmOptions, WarmReplan};
 
 /// Start speed of the equilibrium least-squares problem when the initial state is free
 /// (the independent reference starts it at 15 m/s, too).
@@ -178,6 +178,7 @@ impl<const N: usize> Planner<N> {
         let info = self.solver.solve(&mut self.nlp);
         self.nlp
             .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
+        self.keep_if_success(&info);
         info
     }
 
@@ -231,7 +232,17 @@ impl<const N: usize> Planner<N> {
         let info = self.solver.solve(&mut self.nlp);
         self.nlp
             .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
+        self.keep_if_success(&info);
         Ok(info)
+    }
+
+    /// Sets the tire saturation bound eps_sat of the following solves (R5: sigma - sigma_sl
+    /// <= eps_sat) in place, without changing the constraint structure, so a warm start
+    /// carries over. Allocates nothing.
+    pub fn set_saturation_bound(&mut self, eps_sat: f64) -> Result<(), PlanError> {
+        self.nlp
+            .set_saturation_bound(eps_sat)
+            .map_err(|e| PlanError::Spec(e.into()))
     }
 
     /// Writes a new road window and the fixed initial state x0 into the transcription,

@@ -134,3 +134,31 @@ fn a_stalled_warm_solve_falls_back_to_the_equilibrium_start_and_gives_its_bits()
     let bits = |s: &[[f64; NX]]| s.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(p.states()), bits(cold.states()));
 }
+
+#[test]
+fn a_warm_solve_stopped_by_the_clock_returns_its_best_iterate_instead_of_falling_back() {
+    let (mut p, spec, lap) = planned();
+    let (k, lo, hi, x0) = window(&spec, &lap, 2);
+    let shift = 2.0 * spec.ds();
+    let (xs, us) = shifted(&p, spec.ds(), shift, &x0);
+    let base = *p.solver().settings();
+    let tiny = planner::ip::Settings {
+        max_time_s: 1e-9,
+        ..base
+    };
+    p.solver_mut().set_settings(tiny).unwrap();
+    let r = p
+        .replan_warm(&k, &lo, &hi, x0, (&xs, &us), shift, WarmOptions::default())
+        .unwrap();
+    assert_eq!(r.info.status, planner::ip::Status::TimeLimit, "{r:?}");
+    assert!(!r.fell_back, "{r:?}");
+    assert!(r.info.max_violation.is_finite());
+    // The best iterate is the shifted plan, not the equilibrium guess: it starts at x0
+    // and keeps the previous plan's speeds.
+    assert_eq!(p.states()[0], x0);
+    let v_gap = (p.states()[N / 2][ix::V] - xs[N / 2][ix::V]).abs();
+    assert!(
+        v_gap < 1.0,
+        "speed at the middle node moved {v_gap} m/s from the warm guess"
+    );
+}

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use plan_record::{config_hash, VEHICLE_LEN};
 use plan_record::{
     now_ns, PlanOutput, PlanRecord, PlanWarmStart, RecordError, RecordStats, Recorder, WARM_GUESS,
 };
@@ -11,6 +12,7 @@ use planner::ip::{Settings, SolveInfo};
 use planner::model::{NU, NX};
 use planner::ocp::{InitialState, OcpSpec};
 use planner::plan::{WarmDuals, WarmOptions};
+use planner::record::{settings_to_array, vehicle_to_array};
 
 use crate::msg::HORIZON_N;
 use crate::road::RoadWindow;
@@ -39,6 +41,9 @@ pub struct CycleRecorder {
     rec: Recorder,
     /// The guess name of a cold plan.
     cold: GuessKind,
+    /// The vehicle as recorded and the configuration hash of the nominal problem and of
+    /// the relaxed one (they differ in the saturation bound only).
+    vehicles: [([f64; VEHICLE_LEN], u64); 2],
 }
 
 impl CycleRecorder {
@@ -47,14 +52,21 @@ impl CycleRecorder {
 
     /// Creates the file; every slot starts as the record of `spec` solved with `settings`
     /// from the cold guess `guess`, with room for a road of the planner's horizon and for
-    /// the warm start of a planner with `(n, m)` variables and rows.
+    /// the warm start of a planner with `(n, m)` variables and rows. A relaxed plan is
+    /// recorded with the vehicle of `relaxed` (default: `spec`'s).
     pub fn create(
         path: &Path,
-        spec: &OcpSpec,
+        (spec, relaxed): (&OcpSpec, Option<&OcpSpec>),
         settings: &Settings,
         guess: GuessKind,
         (n, m): (usize, usize),
     ) -> Result<Self, RecordError> {
+        let settings_arr = settings_to_array(settings);
+        let recorded = |sp: &OcpSpec| {
+            let v = vehicle_to_array(&sp.vehicle);
+            (v, config_hash(&v, &settings_arr))
+        };
+        let vehicles = [recorded(spec), recorded(relaxed.unwrap_or(spec))];
         let mut input = planner::record::plan_input(spec, settings, guess, 0, 0);
         for v in [&mut input.kappa, &mut input.e_min, &mut input.e_max] {
             v.reserve(HORIZON_N + 1);
@@ -68,15 +80,17 @@ impl CycleRecorder {
         Ok(Self {
             rec: Recorder::create_pooled(path, &template, Self::SLOTS)?,
             cold: guess,
+            vehicles,
         })
     }
 
-    /// Records one plan: the road window and start state it solved from (and where a
-    /// warm-started solve started) and what it produced. False when it was dropped.
+    /// Records one plan: the road window and start state it solved from, whether it solved
+    /// the relaxed problem (and where a warm-started solve started) and what it produced.
+    /// False when it was dropped.
     pub fn record(
         &self,
         (seq, stamp_in): (u64, u64),
-        road: &RoadWindow,
+        (road, relaxed): (&RoadWindow, bool),
         x0: [f64; NX],
         info: &SolveInfo,
         (states, controls): (&[[f64; NX]], &[[f64; NU]]),
@@ -92,6 +106,7 @@ impl CycleRecorder {
             [&road.kappa, &road.e_min, &road.e_max],
             InitialState::Fixed(x0),
         );
+        (slot.input.vehicle, slot.input.config_hash) = self.vehicles[usize::from(relaxed)];
         slot.input.guess.clear();
         match warm {
             Some(w) => {

@@ -21,7 +21,12 @@ impl PlannerLoop {
     ) -> Result<(), IpcError> {
         let (ds, cycle) = (self.ds, self.cycles);
         let pol = &mut self.policy;
-        let Some(kind) = pol.decide(solved.info.as_ref(), solved.s_track, state.run_id, ds) else {
+        let kind = pol.decide(solved.info.as_ref(), solved.s_track, state.run_id, ds);
+        if let Some(r) = self.cy.relaxed.as_mut() {
+            let own = matches!(kind, Some(PlanKind::Converged | PlanKind::BestIterate));
+            r.after_cycle(self.cy.relaxed_now, own, solved.s_track);
+        }
+        let Some(kind) = kind else {
             return Ok(());
         };
         let meta = if kind == PlanKind::PreviousShifted {

@@ -14,7 +14,9 @@
 //!
 //! A warm solve that does not succeed within `WarmOptions::max_iter` iterations stalls:
 //! the cycle then solves from the equilibrium guess with what is left of the iteration
-//! cap and of the time budget, so the two solves together keep the caps of one.
+//! cap and of the time budget, so the two solves together keep the caps of one. A warm
+//! solve stopped by the time budget returns its best iterate instead: nothing is left
+//! for a second solve.
 
 use super::{PlanError, Planner, ReplanGuess};
 use crate::guess::GuessKind;
@@ -69,6 +71,9 @@ impl WarmReplan {
     }
 }
 
+/// A plan as slices: N + 1 states and N controls.
+pub type PlanSlices<'a> = (&'a [[f64; NX]], &'a [[f64; NU]]);
+
 /// Multipliers a warm-started solve starts from: equality rows `y` (m), lower and upper
 /// bound multipliers `zl`, `zu` (n + m: variables, then rows), as the solver's
 /// [`WarmStart`] takes them.
@@ -101,7 +106,8 @@ fn check_guess<const N: usize>(xs: &[[f64; NX]], us: &[[f64; NU]]) -> Result<(),
     Ok(())
 }
 
-/// The buffers of the shifted multipliers, allocated once with the planner.
+/// The buffers of the shifted multipliers and of the warm start's source, allocated once
+/// with the planner.
 #[derive(Debug)]
 pub(super) struct WarmBuffers {
     y: Vec<f64>,
@@ -110,6 +116,15 @@ pub(super) struct WarmBuffers {
     /// First row of each node's rows (N + 1 entries: node k's rows are
     /// `row_start[k]..row_start[k + 1]`).
     row_start: Vec<usize>,
+    /// The last successful solve, source of the next warm start: its states, controls and
+    /// multipliers (`kept` false until a solve succeeded). A failed solve leaves it as it
+    /// is, so a cycle after a failure still starts from the last good plan.
+    src_x: Vec<[f64; NX]>,
+    src_u: Vec<[f64; NU]>,
+    src_y: Vec<f64>,
+    src_zl: Vec<f64>,
+    src_zu: Vec<f64>,
+    kept: bool,
 }
 
 impl WarmBuffers {
@@ -130,6 +145,12 @@ impl WarmBuffers {
             zl: vec![0.0; n + m],
             zu: vec![0.0; n + m],
             row_start,
+            src_x: vec![[0.0; NX]; n_intervals + 1],
+            src_u: vec![[0.0; NU]; n_intervals],
+            src_y: vec![0.0; m],
+            src_zl: vec![0.0; n + m],
+            src_zu: vec![0.0; n + m],
+            kept: false,
         }
     }
 }
@@ -182,10 +203,33 @@ pub fn shift_plan(
 }
 
 impl<const N: usize> Planner<N> {
+    /// Keeps the solution just computed as the warm start's source when `info` says the
+    /// solve succeeded (copies into preallocated buffers).
+    pub(super) fn keep_if_success(&mut self, info: &SolveInfo) {
+        if !info.status.is_success() {
+            return;
+        }
+        let ws = self.solver.workspace();
+        let w = &mut self.warm;
+        w.src_x.copy_from_slice(&self.xs);
+        w.src_u.copy_from_slice(&self.us);
+        w.src_y.copy_from_slice(&ws.y);
+        w.src_zl.copy_from_slice(&ws.zl);
+        w.src_zu.copy_from_slice(&ws.zu);
+        w.kept = true;
+    }
+
+    /// The last successful solve's states and controls, the source of the next warm start
+    /// (`None` before any solve succeeded). A failed solve leaves it as it is.
+    pub fn warm_source(&self) -> Option<PlanSlices<'_>> {
+        let w = &self.warm;
+        w.kept.then_some((w.src_x.as_slice(), w.src_u.as_slice()))
+    }
+
     /// Replans from the primal guess (`xs`: N + 1 states, `us`: N controls; typically the
-    /// last solution shifted by [`shift_plan`]) with the last solve's multipliers moved
-    /// forward by `shift` metres (see the module documentation); the last solve must have
-    /// been of this planner's problem. Falls back to the equilibrium start when the warm
+    /// last successful solution, [`Self::warm_source`], shifted by [`shift_plan`]) with
+    /// that solve's multipliers moved forward by `shift` metres (see the module
+    /// documentation; before any success, the last solve's). Falls back to the equilibrium start when the warm
     /// solve stalls. The solution is then in [`Self::states`] and [`Self::controls`]; the
     /// multipliers it started from in [`Self::warm_duals`]. Allocates nothing.
     #[allow(clippy::too_many_arguments)]
@@ -274,9 +318,12 @@ impl<const N: usize> Planner<N> {
         };
         let info = self.solver.solve_warm(&mut self.nlp, &start);
         self.solver.set_settings(base).ok();
-        if info.status.is_success() {
-            self.nlp
-                .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
+        self.nlp
+            .trajectory_into(self.solver.x(), &mut self.xs, &mut self.us);
+        self.keep_if_success(&info);
+        // A warm solve the clock stopped leaves no time for another: its best iterate is
+        // the answer (a fall-back would return its own guess, after no iteration).
+        if info.status.is_success() || info.status == crate::ip::Status::TimeLimit {
             return Ok(WarmReplan {
                 warm_iterations: info.iterations,
                 info,
@@ -299,14 +346,19 @@ impl<const N: usize> Planner<N> {
         })
     }
 
-    /// The last solve's multipliers moved forward by round(`shift` / `ds`) nodes into the
-    /// warm buffers.
+    /// The last successful solve's multipliers (before any success, the last solve's)
+    /// moved forward by round(`shift` / `ds`) nodes into the warm buffers.
     fn shift_duals(&mut self, shift: f64, ds: f64) {
         let j = (shift / ds).round().max(0.0) as usize;
         let ws = self.solver.workspace();
         let lay = self.nlp.layout();
         let (n, m) = (ws.n, ws.m);
         let w = &mut self.warm;
+        let (y, zl, zu) = if w.kept {
+            (&w.src_y[..], &w.src_zl[..], &w.src_zu[..])
+        } else {
+            (&ws.y[..], &ws.zl[..], &ws.zu[..])
+        };
         for idx in 0..n {
             let (k, kind) = lay.describe(idx);
             let src = match kind {
@@ -314,8 +366,8 @@ impl<const N: usize> Planner<N> {
                 VarKind::Control(i) => lay.u((k + j).min(N - 1), i),
                 VarKind::Stage(i) => lay.w((k + j).min(N - 1), i),
             };
-            w.zl[idx] = ws.zl[src];
-            w.zu[idx] = ws.zu[src];
+            w.zl[idx] = zl[src];
+            w.zu[idx] = zu[src];
         }
         for i in 0..m {
             let info = self.nlp.describe_row(i);
@@ -328,9 +380,9 @@ impl<const N: usize> Planner<N> {
                         .unwrap_or(i)
                 }
             };
-            w.y[i] = ws.y[src];
-            w.zl[n + i] = ws.zl[n + src];
-            w.zu[n + i] = ws.zu[n + src];
+            w.y[i] = y[src];
+            w.zl[n + i] = zl[n + src];
+            w.zu[n + i] = zu[n + src];
         }
     }
 }

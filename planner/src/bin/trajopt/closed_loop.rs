@@ -72,6 +72,15 @@ pub struct ClosedLoopArgs {
     /// --warm-start`; docs/solver.md); `off` starts every plan from the cold guess.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     warm_start: String,
+    /// Lane margin of a relaxed plan [m] (`planner_proc --relaxed-margin-m`): after a
+    /// cycle without a plan of its own, the next cycles on a closed road plan with the tire
+    /// saturation rows off and this margin.
+    #[arg(long, default_value_t = 0.2)]
+    relaxed_margin_m: f64,
+    /// Relaxed cycles in a row with their own plan before the nominal problem resumes
+    /// (`planner_proc --relaxed-cycles`; 0: never relax).
+    #[arg(long, default_value_t = 10)]
+    relaxed_cycles: u32,
     /// Keep the tracker's driven trace and plan log (driven.csv, plans.csv) in this folder
     /// (default: a temporary folder removed after the run).
     #[arg(long)]
@@ -204,7 +213,11 @@ fn spawn_pair(
         .arg("--cold-guess")
         .arg(&args.cold_guess)
         .arg("--friction-scale")
-        .arg(args.friction_scale.to_string());
+        .arg(args.friction_scale.to_string())
+        .arg("--relaxed-margin-m")
+        .arg(args.relaxed_margin_m.to_string())
+        .arg("--relaxed-cycles")
+        .arg(args.relaxed_cycles.to_string());
     let planner = ChildGuard(Some(
         pc.spawn()
             .map_err(|e| format!("{}: {e}", planner_exe.display()))?,

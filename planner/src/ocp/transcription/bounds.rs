@@ -52,6 +52,18 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         Ok(())
     }
 
+    /// Sets the tire saturation bound eps_sat (R5) of the spec's vehicle and updates the
+    /// row bounds in place (allocation-free; the constraint structure is unchanged). A
+    /// value the vehicle check refuses changes nothing.
+    pub fn set_saturation_bound(&mut self, eps_sat: f64) -> Result<(), crate::model::ParamError> {
+        let mut vehicle = self.spec.vehicle;
+        vehicle.eps_sat = eps_sat;
+        vehicle.check()?;
+        self.spec.vehicle = vehicle;
+        self.refresh_bounds();
+        Ok(())
+    }
+
     /// Switches the initial-state treatment (Free or Fixed(x0)) without changing the
     /// constraint structure: all nine initial-condition rows always exist and only their
     /// bounds change (see [`initial_row_bounds`]). Allocation-free.

@@ -5,17 +5,23 @@
 //! trajectory reaches at t = i / rate (linear interpolation between nodes), with that
 //! state fixed (s and t reset to 0) and the road ahead taken from the exact piecewise
 //! curvature shifted by its arc length, wrapping around the lap.
+//!
+//! With warm start (the planner process's default), plan i > 0 starts from plan i - 1
+//! shifted by the arc length driven, primal and dual (`Planner::replan_warm`), and is
+//! recorded with that start, so `replay run` re-solves it bit for bit; without, every plan
+//! starts from the equilibrium guess in a fresh planner.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use plan_record::{now_ns, Record, RecordStats, Recorder};
+use plan_record::{PlanWarmStart, WARM_GUESS};
 use planner::config::{load_scenario_for_horizon, load_solver, load_vehicle};
 use planner::guess::GuessKind;
 use planner::model::{ix, NX};
 use planner::ocp::{InitialState, OcpSpec};
-use planner::plan::Planner;
-use planner::record::{plan_input, plan_output};
+use planner::plan::{shift_plan, Planner, WarmOptions};
+use planner::record::{plan_input, plan_output, write_warm};
 use planner::track::piecewise_constant;
 
 use crate::N;
@@ -35,6 +41,8 @@ pub struct OvalOptions {
     pub rate_hz: f64,
     /// Output file.
     pub out: PathBuf,
+    /// Warm-start each plan from the previous one.
+    pub warm_start: bool,
 }
 
 /// Why the drive could not be recorded.
@@ -144,6 +152,56 @@ fn shifted_spec(base: &OcpSpec, track: &Track, s0: f64, x: [f64; NX]) -> OcpSpec
     spec
 }
 
+/// Plan `spec` (its road and fixed start) warm-started on `planner` from its last
+/// successful plan shifted by `shift` metres: the planner, the solve, its time \[ms\] and
+/// the warm start to record (as plan `seq` stamped `stamp`).
+fn warm_plan(
+    mut planner: Planner<N>,
+    spec: &OcpSpec,
+    shift: f64,
+    (seq, stamp): (u64, u64),
+) -> Result<
+    (
+        Planner<N>,
+        planner::ip::SolveInfo,
+        f64,
+        Option<PlanWarmStart>,
+    ),
+    OvalError,
+> {
+    let InitialState::Fixed(x0) = spec.initial else {
+        return Err(OvalError::Options("a drive plan has a fixed start".into()));
+    };
+    let (mut gx, mut gu) = (vec![[0.0; NX]; N + 1], vec![[0.0; planner::model::NU]; N]);
+    let Some((xs, us)) = planner.warm_source() else {
+        return Err(OvalError::Options(format!(
+            "plan {seq}: the previous plan did not succeed, nothing to warm-start from"
+        )));
+    };
+    shift_plan(xs, us, spec.ds(), shift, &x0, &mut gx, &mut gu);
+    let opts = WarmOptions::default();
+    let t0 = Instant::now();
+    let r = planner.replan_warm(
+        &spec.kappa,
+        &spec.e_min,
+        &spec.e_max,
+        x0,
+        (&gx, &gu),
+        shift,
+        opts,
+    )?;
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut w = PlanWarmStart::with_capacity(N, 0, 0);
+    write_warm(
+        &mut w,
+        (seq, stamp, shift),
+        &opts,
+        (&gx, &gu),
+        planner.warm_duals(),
+    );
+    Ok((planner, r.info, ms, Some(w)))
+}
+
 /// Records the drive; `progress` is called after each plan with (i, latency_ms, status).
 pub fn record_oval(
     opts: &OvalOptions,
@@ -187,6 +245,8 @@ pub fn record_oval(
     let start = now_ns();
     let mut latency_ms = Vec::with_capacity(opts.plans);
     let mut statuses = Vec::with_capacity(opts.plans);
+    // The planner of the previous plan and the arc length it started at (warm start).
+    let mut previous: Option<(Planner<N>, f64)> = None;
     for i in 0..opts.plans {
         let t = i as f64 * dt;
         let x = state_at(&xs, t)
@@ -194,18 +254,30 @@ pub fn record_oval(
         let spec = shifted_spec(&base, &track, x[ix::S], x);
         // Stamps on the drive's 10 Hz clock, so the file's duration is the drive's.
         let stamp = start + (t * 1e9).round() as u64;
-        let input = plan_input(&spec, &settings, guess, i as u64, stamp);
-        let mut planner = Planner::<N>::new(spec, settings)?;
-        let t0 = Instant::now();
-        let info = planner.solve(guess);
-        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let mut input = plan_input(&spec, &settings, guess, i as u64, stamp);
+        let (planner, info, ms, warm) = match previous.take() {
+            Some((planner, s_prev)) if opts.warm_start => {
+                input.guess = WARM_GUESS.into();
+                warm_plan(planner, &spec, x[ix::S] - s_prev, (i as u64, stamp))?
+            }
+            _ => {
+                let mut planner = Planner::<N>::new(spec, settings)?;
+                let t0 = Instant::now();
+                let info = planner.solve(guess);
+                (planner, info, t0.elapsed().as_secs_f64() * 1e3, None)
+            }
+        };
         let done = stamp + (ms * 1e6) as u64;
         let output = plan_output(i as u64, done, &info, planner.states(), planner.controls());
         recorder.record(Record::Input(Box::new(input)));
+        if let Some(w) = warm {
+            recorder.record(Record::Warm(Box::new(w)));
+        }
         recorder.record(Record::Output(Box::new(output)));
         latency_ms.push(ms);
         statuses.push(info.status.name());
         progress(i, ms, info.status.name());
+        previous = Some((planner, x[ix::S]));
     }
     let stats = recorder.finish()?;
     Ok(OvalSummary {

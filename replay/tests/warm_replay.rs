@@ -124,3 +124,34 @@ fn a_rewritten_recording_keeps_its_warm_starts() {
     assert_eq!(back.warm_starts, rec.warm_starts);
     assert_eq!(back.inputs, rec.inputs);
 }
+
+#[test]
+fn the_warm_started_oval_drive_records_every_warm_start_and_replays_bit_identically() {
+    let d = common::temp_dir("warm_drive");
+    let f = d.join("drive.mcap");
+    let opts = replay::oval::OvalOptions {
+        scenario: common::repo().join("config/scenarios/oval.toml"),
+        vehicle: common::repo().join("config/vehicles/lc500.toml"),
+        solver: common::repo().join("config/solver.toml"),
+        plans: 6,
+        rate_hz: 10.0,
+        out: f.clone(),
+        warm_start: true,
+    };
+    let summary = replay::oval::record_oval(&opts, |_, _, _| {}).unwrap();
+    assert!(
+        summary.statuses.iter().all(|s| *s == "optimal"),
+        "{:?}",
+        summary.statuses
+    );
+    let rec = Recording::read(&f).unwrap();
+    assert_eq!(rec.inputs[0].guess, "equilibrium");
+    assert!(rec.inputs[1..].iter().all(|i| i.guess == WARM_GUESS));
+    assert_eq!(rec.warm_starts.len(), 5);
+    let r = run(&rec, RunOptions::default()).unwrap();
+    assert_eq!((r.identical, r.different, r.unverified), (6, 0, 0), "{r}");
+    // Warm plans take fewer iterations than the cold first one.
+    let its: Vec<u32> = r.per_plan.iter().map(|p| p.iterations).collect();
+    assert!(its[1..].iter().all(|&i| i < its[0]), "{its:?}");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -80,6 +80,11 @@ enum Command {
         /// Replanning rate [Hz].
         #[arg(long, default_value_t = 10.0)]
         rate_hz: f64,
+        /// Warm-start each plan from the previous one shifted by the arc length driven,
+        /// primal and dual, as the planner process does (`off`: every plan from the
+        /// equilibrium guess).
+        #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+        warm_start: String,
         /// Output file.
         #[arg(long, default_value = "out/oval_drive.mcap")]
         out: PathBuf,
@@ -218,6 +223,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
         Command::RecordOval {
             plans,
             rate_hz,
+            warm_start,
             out,
             scenario,
             vehicle,
@@ -234,6 +240,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 plans,
                 rate_hz,
                 out: out.clone(),
+                warm_start: warm_start == "on",
             };
             let summary = record_oval(&opts, |i, ms, status| {
                 errln!("plan {i:3}: {status} in {ms:.1} ms");

@@ -77,6 +77,9 @@ pub struct ClosedLoopArgs {
     /// saturation rows off and this margin.
     #[arg(long, default_value_t = 0.2)]
     relaxed_margin_m: f64,
+    /// Tire saturation bound of a relaxed plan (`planner_proc --relaxed-saturation`).
+    #[arg(long, default_value_t = 0.05)]
+    relaxed_saturation: f64,
     /// Relaxed cycles in a row with their own plan before the nominal problem resumes
     /// (`planner_proc --relaxed-cycles`; 0: never relax).
     #[arg(long, default_value_t = 10)]
@@ -217,7 +220,9 @@ fn spawn_pair(
         .arg("--relaxed-margin-m")
         .arg(args.relaxed_margin_m.to_string())
         .arg("--relaxed-cycles")
-        .arg(args.relaxed_cycles.to_string());
+        .arg(args.relaxed_cycles.to_string())
+        .arg("--relaxed-saturation")
+        .arg(args.relaxed_saturation.to_string());
     let planner = ChildGuard(Some(
         pc.spawn()
             .map_err(|e| format!("{}: {e}", planner_exe.display()))?,

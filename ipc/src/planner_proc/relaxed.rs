@@ -16,8 +16,8 @@
 //! - the lane margin shrinks from `--lane-margin-m` to `--relaxed-margin-m`, so the plan
 //!   may use the room the margin keeps for tracking errors.
 //!
-//! Re-solving the Montreal recording's failing plans offline, the relaxed problem solves
-//! most of those the nominal one cannot (docs/performance.md). Dropping the saturation rows
+//! Re-solving offline the 14 plans of a Montreal recording that failed into the hairpin,
+//! the relaxed problem solves 8 and the nominal one 1 (docs/performance.md). Dropping the saturation rows
 //! altogether solves a few more, but in closed loop its plans drift at 50 m/s (sideslip
 //! 0.3 rad) and spin the rear wheel up at the horizon's end. The nominal problem resumes
 //! after `hold` relaxed cycles in a row that sent their own plan. Both problems have the

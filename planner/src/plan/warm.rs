@@ -5,10 +5,11 @@
 //! A replanning cycle moves the window by `shift` metres. The primal guess is the previous
 //! plan's states interpolated at s + shift (t rebased to the new origin, the part past the
 //! old horizon extended at the last node's pace, x_0 the measured state), its controls
-//! taken from the interval s + shift falls in. The multipliers move by the nearest whole
-//! number of nodes j = round(shift / ds): the multiplier of a row of kind K at node k (and
-//! the bound multipliers of variable o of node k) is the previous one of kind K at node
-//! min(k + j, last); the initial-condition rows keep theirs. The solve then starts from
+//! taken from the interval s + shift falls in. The multipliers move by shift / ds = j + f
+//! nodes: the multiplier of a row of kind K at node k (and the bound multipliers of
+//! variable o of node k) is (1 - f) times the previous one of kind K at node min(k + j,
+//! last) plus f times the one at min(k + j + 1, last), the weights of the primal guess's
+//! interpolation; the initial-condition rows keep theirs. The solve then starts from
 //! these multipliers with a barrier parameter matched to the shifted point's
 //! complementarity (`ip::solver::warm`).
 //!
@@ -347,9 +348,14 @@ impl<const N: usize> Planner<N> {
     }
 
     /// The last successful solve's multipliers (before any success, the last solve's)
-    /// moved forward by round(`shift` / `ds`) nodes into the warm buffers.
+    /// moved forward by `shift` / `ds` nodes, blended between the whole-node shifts around
+    /// it, into the warm buffers.
     fn shift_duals(&mut self, shift: f64, ds: f64) {
-        let j = (shift / ds).round().max(0.0) as usize;
+        let q = (shift / ds).max(0.0);
+        let j = q.floor() as usize;
+        // The primal guess is interpolated at the exact shift; the multipliers blend the
+        // two whole-node shifts around it with the same weight.
+        let f = q - j as f64;
         let ws = self.solver.workspace();
         let lay = self.nlp.layout();
         let (n, m) = (ws.n, ws.m);
@@ -359,19 +365,21 @@ impl<const N: usize> Planner<N> {
         } else {
             (&ws.y[..], &ws.zl[..], &ws.zu[..])
         };
+        let mix = |v: &[f64], a: usize, b: usize| (1.0 - f) * v[a] + f * v[b];
         for idx in 0..n {
             let (k, kind) = lay.describe(idx);
-            let src = match kind {
+            let src = |j: usize| match kind {
                 VarKind::State(i) => lay.x((k + j).min(N), i),
                 VarKind::Control(i) => lay.u((k + j).min(N - 1), i),
                 VarKind::Stage(i) => lay.w((k + j).min(N - 1), i),
             };
-            w.zl[idx] = zl[src];
-            w.zu[idx] = zu[src];
+            let (a, b) = (src(j), src(j + 1));
+            w.zl[idx] = mix(zl, a, b);
+            w.zu[idx] = mix(zu, a, b);
         }
         for i in 0..m {
             let info = self.nlp.describe_row(i);
-            let src = match info.kind {
+            let src = |j: usize| match info.kind {
                 RowKind::Initial { .. } => i,
                 kind => {
                     let node = (info.node + j).min(N - 1);
@@ -380,9 +388,10 @@ impl<const N: usize> Planner<N> {
                         .unwrap_or(i)
                 }
             };
-            w.y[i] = y[src];
-            w.zl[n + i] = zl[n + src];
-            w.zu[n + i] = zu[n + src];
+            let (a, b) = (src(j), src(j + 1));
+            w.y[i] = mix(y, a, b);
+            w.zl[n + i] = mix(zl, n + a, n + b);
+            w.zu[n + i] = mix(zu, n + a, n + b);
         }
     }
 }

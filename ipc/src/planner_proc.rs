@@ -172,8 +172,11 @@ impl Cycle {
     }
 
     /// Switches the planner to the relaxed problem's saturation bound or back (the lane
-    /// margin comes with the road window).
+    /// margin comes with the road window); the bounds are recomputed only on a switch.
     fn set_relaxed(&mut self, relaxed: bool) {
+        if relaxed == self.relaxed_now {
+            return;
+        }
         self.relaxed_now = relaxed;
         let Some(r) = &self.relaxed else { return };
         let eps = r.eps_sat[usize::from(relaxed)];
@@ -470,7 +473,7 @@ impl PlannerLoop {
 
     /// Plans from `state`: samples the road window, nudges the start state into the
     /// bounds, checks the domain and solves (warm, then from the equilibrium; the relaxed
-    /// problem from the cold guess after a cycle without a plan of its own). `None` when
+    /// problem after a cycle without a plan of its own). `None` when
     /// nothing was planned (a state outside the domain); otherwise what was solved,
     /// converged or not (`info` is `None` when the replan failed).
     fn plan_cycle(&mut self, state: &VehicleState) -> Option<Solved> {

@@ -153,32 +153,21 @@ fn shifted_spec(base: &OcpSpec, track: &Track, s0: f64, x: [f64; NX]) -> OcpSpec
 }
 
 /// Plan `spec` (its road and fixed start) warm-started on `planner` from its last
-/// successful plan shifted by `shift` metres: the planner, the solve, its time \[ms\] and
-/// the warm start to record (as plan `seq` stamped `stamp`).
+/// successful plan, `xs` and `us`, shifted by `shift` metres: the solve, its time \[ms\]
+/// and the warm start to record (as plan `seq` stamped `stamp`).
 fn warm_plan(
-    mut planner: Planner<N>,
+    planner: &mut Planner<N>,
     spec: &OcpSpec,
     shift: f64,
     (seq, stamp): (u64, u64),
-) -> Result<
-    (
-        Planner<N>,
-        planner::ip::SolveInfo,
-        f64,
-        Option<PlanWarmStart>,
-    ),
-    OvalError,
-> {
+) -> Result<(planner::ip::SolveInfo, f64, PlanWarmStart), OvalError> {
     let InitialState::Fixed(x0) = spec.initial else {
         return Err(OvalError::Options("a drive plan has a fixed start".into()));
     };
     let (mut gx, mut gu) = (vec![[0.0; NX]; N + 1], vec![[0.0; planner::model::NU]; N]);
-    let Some((xs, us)) = planner.warm_source() else {
-        return Err(OvalError::Options(format!(
-            "plan {seq}: the previous plan did not succeed, nothing to warm-start from"
-        )));
-    };
-    shift_plan(xs, us, spec.ds(), shift, &x0, &mut gx, &mut gu);
+    if let Some((xs, us)) = planner.warm_source() {
+        shift_plan(xs, us, spec.ds(), shift, &x0, &mut gx, &mut gu);
+    }
     let opts = WarmOptions::default();
     let t0 = Instant::now();
     let r = planner.replan_warm(
@@ -199,7 +188,7 @@ fn warm_plan(
         (&gx, &gu),
         planner.warm_duals(),
     );
-    Ok((planner, r.info, ms, Some(w)))
+    Ok((r.info, ms, w))
 }
 
 /// Records the drive; `progress` is called after each plan with (i, latency_ms, status).
@@ -245,7 +234,8 @@ pub fn record_oval(
     let start = now_ns();
     let mut latency_ms = Vec::with_capacity(opts.plans);
     let mut statuses = Vec::with_capacity(opts.plans);
-    // The planner of the previous plan and the arc length it started at (warm start).
+    // The planner of the previous plans and the arc length its last successful plan (the
+    // warm start's source) started at.
     let mut previous: Option<(Planner<N>, f64)> = None;
     for i in 0..opts.plans {
         let t = i as f64 * dt;
@@ -255,10 +245,13 @@ pub fn record_oval(
         // Stamps on the drive's 10 Hz clock, so the file's duration is the drive's.
         let stamp = start + (t * 1e9).round() as u64;
         let mut input = plan_input(&spec, &settings, guess, i as u64, stamp);
+        let s_src_before = previous.as_ref().map(|(_, s)| *s);
         let (planner, info, ms, warm) = match previous.take() {
-            Some((planner, s_prev)) if opts.warm_start => {
+            Some((mut planner, s_src)) if opts.warm_start && planner.warm_source().is_some() => {
                 input.guess = WARM_GUESS.into();
-                warm_plan(planner, &spec, x[ix::S] - s_prev, (i as u64, stamp))?
+                let shift = x[ix::S] - s_src;
+                let (info, ms, w) = warm_plan(&mut planner, &spec, shift, (i as u64, stamp))?;
+                (planner, info, ms, Some(w))
             }
             _ => {
                 let mut planner = Planner::<N>::new(spec, settings)?;
@@ -277,7 +270,12 @@ pub fn record_oval(
         latency_ms.push(ms);
         statuses.push(info.status.name());
         progress(i, ms, info.status.name());
-        previous = Some((planner, x[ix::S]));
+        let s_src = if info.status.is_success() {
+            x[ix::S]
+        } else {
+            s_src_before.unwrap_or(x[ix::S])
+        };
+        previous = Some((planner, s_src));
     }
     let stats = recorder.finish()?;
     Ok(OvalSummary {

@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use plan_record::{config_hash, VEHICLE_LEN};
 use plan_record::{
-    now_ns, PlanOutput, PlanRecord, PlanWarmStart, RecordError, RecordStats, Recorder, WARM_GUESS,
+    config_hash, now_ns, PlanOutput, PlanRecord, PlanWarmStart, RecordError, RecordStats, Recorder,
+    VEHICLE_LEN, WARM_GUESS,
 };
 use planner::guess::GuessKind;
 use planner::ip::{Settings, SolveInfo};

@@ -1,7 +1,7 @@
 //! Speed-scheduled LQR on the tracking-error dynamics.
 //!
 //! The error z = x - x_ref over the states [r, V, beta, V_wr, e, dpsi] and the control
-//! correction v = u - u_ref over [delta, T_comb] obey, to first order around the plan,
+//! correction v = u - u_ref over [delta, T_comb, T_bf] obey, to first order around the plan,
 //! z_dot = A z + B v with A = df/dx, B = df/du of the single-track model (paper eq. 1).
 //! The Jacobians are taken exactly (dual numbers through `time_derivatives`) at
 //! straight-line cruise at speed V (r = beta = dFz = e = dpsi = 0, V_wr = V, u = 0,
@@ -17,7 +17,7 @@
 //! own hardware): delta_dot = (delta_cmd - delta) / tau. The design therefore runs on the
 //! error state augmented by the actuator's steering error, z_a = [z, delta - delta_ref],
 //!
-//!   z_a_dot = [[A, b_delta], [0, -1/tau]] z_a + [[0, b_T], [1/tau, 0]] v,
+//!   z_a_dot = [[A, b_delta], [0, -1/tau]] z_a + [[0, b_T, b_bf], [1/tau, 0, 0]] v,
 //!
 //! so the gain knows that a steering command acts only after the lag (a design on z alone
 //! asks for corrections the actuator delivers 50 ms late, which at speed destabilises the
@@ -35,12 +35,12 @@ use planner::model::{iu, ix, time_derivatives, VehicleParams, NU, NX};
 pub const NZ: usize = 6;
 /// Number of design states: the error states and the actuator's steering error.
 pub const NA: usize = NZ + 1;
-/// Number of feedback inputs [delta, T_comb].
-pub const NV: usize = 2;
+/// Number of feedback inputs [delta, T_comb, T_bf].
+pub const NV: usize = 3;
 /// State index (in x) of each error state.
 pub const Z_STATES: [usize; NZ] = [ix::R, ix::V, ix::BETA, ix::VWR, ix::E, ix::DPSI];
 /// Control index (in u) of each feedback input.
-pub const V_INPUTS: [usize; NV] = [iu::DELTA, iu::TCOMB];
+pub const V_INPUTS: [usize; NV] = [iu::DELTA, iu::TCOMB, iu::TBF];
 
 type MatZ = SMatrix<f64, NZ, NZ>;
 type MatB = SMatrix<f64, NZ, NV>;
@@ -55,7 +55,8 @@ pub type Gain = SMatrix<f64, NV, NA>;
 pub struct Weights {
     /// Largest acceptable error per state [r, V, beta, V_wr, e, dpsi, steering] (SI units).
     pub z_max: [f64; NA],
-    /// Largest acceptable correction per input [delta \[rad\], T_comb \[N m\]].
+    /// Largest acceptable correction per input [delta \[rad\], T_comb \[N m\], T_bf
+    /// \[N m\]].
     pub v_max: [f64; NV],
 }
 
@@ -68,7 +69,7 @@ impl Default for Weights {
     fn default() -> Self {
         Self {
             z_max: [1.0, 0.5, 0.5, 0.2, 0.05, 0.02, 0.02],
-            v_max: [0.02, 600.0],
+            v_max: [0.02, 600.0, 600.0],
         }
     }
 }
@@ -143,7 +144,9 @@ pub fn augment(a: &MatZ, b: &MatB, tau: f64) -> (MatA, MatBa) {
     aa.fixed_view_mut::<NZ, NZ>(0, 0).copy_from(a);
     aa.fixed_view_mut::<NZ, 1>(0, NZ).copy_from(&b.column(0));
     aa[(NZ, NZ)] = -1.0 / tau;
-    ba.fixed_view_mut::<NZ, 1>(0, 1).copy_from(&b.column(1));
+    for m in 1..NV {
+        ba.fixed_view_mut::<NZ, 1>(0, m).copy_from(&b.column(m));
+    }
     ba[(NZ, 0)] = 1.0 / tau;
     (aa, ba)
 }
@@ -258,8 +261,8 @@ mod tests {
             }
             time_derivatives(&p, &x, &u, 0.0).dxdt
         };
-        // Steps per column [r, V, beta, V_wr, e, dpsi, delta, T_comb].
-        let steps = [1e-6, 1e-5, 1e-7, 1e-6, 1e-6, 1e-7, 1e-7, 1e-2];
+        // Steps per column [r, V, beta, V_wr, e, dpsi, delta, T_comb, T_bf].
+        let steps = [1e-6, 1e-5, 1e-7, 1e-6, 1e-6, 1e-7, 1e-7, 1e-2, 1e-2];
         for (j, &h) in steps.iter().enumerate() {
             let (mut zp, mut zm) = ([0.0; NZ], [0.0; NZ]);
             let (mut vp, mut vm) = ([0.0; NV], [0.0; NV]);

@@ -104,9 +104,10 @@ pub struct PlannerArgs {
     /// (0: never relax).
     #[arg(long, default_value_t = 10)]
     pub relaxed_cycles: u32,
-    /// Fraction of the vehicle file's tire-road friction the plans use (0.5 to 1): the
-    /// grip left over is the tracker's authority to correct errors and the margin for a
-    /// road that grips less than the file says (docs/plant-and-tracker.md).
+    /// Fraction of the vehicle file's tire-road friction and of its brake torques the
+    /// plans use (0.5 to 1): the grip left over is the tracker's authority to correct
+    /// errors and the margin for a road that grips less than the file says
+    /// (docs/plant-and-tracker.md).
     #[arg(long, default_value_t = 1.0)]
     pub friction_scale: f64,
     /// Guess of a cold (not warm-started) solve: `equilibrium` (paper eq. 8, constant
@@ -353,7 +354,7 @@ impl PlannerLoop {
         crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
         let mut sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
-        sc.spec.vehicle.mu *= args.friction_scale;
+        sc.spec.vehicle.scale_grip(args.friction_scale);
         sc.road.check_margin(args.lane_margin_m).map_err(|e| {
             PlannerProcError::Setup(format!(
                 "--lane-margin-m on {}: {e}",

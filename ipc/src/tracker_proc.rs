@@ -94,6 +94,11 @@ pub struct TrackerArgs {
     /// given or the scenario fixes the initial state.
     #[arg(long)]
     pub free_start: bool,
+    /// Grip scale of the planner's plans (its `--friction-scale`): the free-start solve
+    /// plans with it, so the car starts at the pace the planner itself chooses. The
+    /// controller and the plant do not use it.
+    #[arg(long, default_value_t = 1.0)]
+    pub friction_scale: f64,
     /// Plant integration step [s].
     #[arg(long, default_value_t = 0.00025)]
     pub plant_dt_s: f64,
@@ -206,6 +211,12 @@ fn check_args(args: &TrackerArgs) -> Result<(), TrackerProcError> {
             args.v0.unwrap_or(10.0),
             args.v0.is_none_or(|v| v > 3.0 && v.is_finite()),
             "must be finite and > 3 m/s",
+        ),
+        (
+            "--friction-scale",
+            args.friction_scale,
+            (0.5..=1.0).contains(&args.friction_scale),
+            "must lie in [0.5, 1]",
         ),
         (
             "--start-s",
@@ -370,7 +381,7 @@ impl TrackerLoop {
         let (x0, start) = initial_state(
             &sc,
             args.start_s,
-            (args.v0, args.free_start),
+            (args.v0, args.free_start, args.friction_scale),
             args.lane_margin_m,
         )
         .map_err(TrackerProcError::Setup)?;

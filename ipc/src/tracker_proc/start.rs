@@ -19,10 +19,12 @@ use crate::road::{RoadWindow, Scenario};
 pub const DEFAULT_V0_MPS: f64 = 15.0;
 
 /// The start state and how it was chosen (`"cruise"`, `"scenario"`, `"free_start_solve"`).
+/// The free-start solve plans with the planner's grip scale `grip`
+/// ([`planner::model::VehicleParams::scale_grip`]).
 pub fn initial_state(
     sc: &Scenario,
     start_s: f64,
-    (v0, free_start): (Option<f64>, bool),
+    (v0, free_start, grip): (Option<f64>, bool, f64),
     margin: f64,
 ) -> Result<([f64; NX], &'static str), String> {
     let fixed = matches!(sc.spec.initial, InitialState::Fixed(_));
@@ -48,6 +50,7 @@ pub fn initial_state(
     spec.e_min = w.e_min.to_vec();
     spec.e_max = w.e_max.to_vec();
     spec.initial = InitialState::Free;
+    spec.vehicle.scale_grip(grip);
     let mut planner = Planner::<HORIZON_N>::new(spec, sc.settings)
         .map_err(|e| format!("free-start solve at s = {start_s} m: {e}"))?;
     let info = planner.solve(GuessKind::Equilibrium);

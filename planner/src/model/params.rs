@@ -72,6 +72,17 @@ pub struct ParamError {
 }
 
 impl VehicleParams {
+    /// Scales the grip by `f`: the tire-road friction and the two brake torque limits the
+    /// vehicle file derives from it (`T_bf_min` = mu F_zf,static R_w, `T_comb_min` just
+    /// above mu F_zr,static R_w). A planner that plans below the limit (f < 1) leaves the
+    /// tracker authority to correct errors, in braking as in cornering; scaling only the
+    /// friction would leave the plans braking at the full brake torques.
+    pub fn scale_grip(&mut self, f: f64) {
+        self.mu *= f;
+        self.t_bf_min *= f;
+        self.t_comb_min *= f;
+    }
+
     /// Checks the domain every model function relies on (finite values, positive sizes,
     /// stiffnesses and rate limits, ordered torque limits, a + b = L, delta_max < pi/2):
     /// what the vehicle file loader enforces, for parameters that come from elsewhere (a
@@ -287,6 +298,20 @@ pub fn lc500() -> VehicleParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scaling_the_grip_scales_the_friction_and_the_brake_torques_only() {
+        let p = lc500();
+        let mut q = p;
+        q.scale_grip(0.9);
+        assert_eq!(q.mu, 0.9 * p.mu);
+        assert_eq!(q.t_bf_min, 0.9 * p.t_bf_min);
+        assert_eq!(q.t_comb_min, 0.9 * p.t_comb_min);
+        let mut back = q;
+        (back.mu, back.t_bf_min, back.t_comb_min) = (p.mu, p.t_bf_min, p.t_comb_min);
+        assert_eq!(back, p, "nothing else changes");
+        assert_eq!(q.check(), Ok(()));
+    }
 
     #[test]
     fn the_lc500_passes_and_broken_parameters_are_named() {

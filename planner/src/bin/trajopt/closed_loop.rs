@@ -61,8 +61,8 @@ pub struct ClosedLoopArgs {
     /// of the period).
     #[arg(long)]
     budget_ms: Option<f64>,
-    /// Fraction of the vehicle file's friction the plans use (`planner_proc
-    /// --friction-scale`; the plant keeps its own).
+    /// Fraction of the vehicle file's friction and brake torques the plans use
+    /// (`planner_proc --friction-scale`; the plant keeps its own).
     #[arg(long, default_value_t = 1.0)]
     friction_scale: f64,
     /// Guess of a cold solve: equilibrium or road_speed (`planner_proc --cold-guess`).
@@ -247,7 +247,9 @@ fn spawn_pair(
             tc.arg("--v0").arg(v.to_string());
         }
         None if on_track => {
-            tc.arg("--free-start");
+            tc.arg("--free-start")
+                .arg("--friction-scale")
+                .arg(args.friction_scale.to_string());
         }
         None => {}
     }

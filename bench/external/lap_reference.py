@@ -75,6 +75,10 @@ def parse_args(argv=None):
     ap.add_argument("--integrator", choices=("trapezoidal", "ie"), default="trapezoidal")
     ap.add_argument("--steering-slew-weight", type=float, default=None,
                     help="default: the scenario file's (segments.toml for tracks, oval.toml)")
+    ap.add_argument("--friction-scale", type=float, default=1.0,
+                    help="scale the friction and the brake torque limits (trajopt closed-loop --friction-scale)")
+    ap.add_argument("--v-max-mps", type=float, default=None,
+                    help="speed cap instead of the scenario's (trajopt closed-loop --track-v-max-mps)")
     ap.add_argument("--max-iter", type=int, default=3000)
     ap.add_argument("--print-level", type=int, default=0, help="IPOPT print_level")
     ap.add_argument("--out", default="config/reference", help="folder of lap_times.toml and the speed CSVs")
@@ -359,6 +363,8 @@ def solve_lap(args, p, name, window=False):
     road = segment_road(args.root, name, args.edge_margin_m) if window else make_road(args, name)
     if args.steering_slew_weight is not None:
         road.slew = args.steering_slew_weight
+    if args.v_max_mps is not None:
+        road.v_max = args.v_max_mps
     n = max(4, round(road.lap / args.spacing))
     t0 = time.perf_counter()
     nlp = LapNlp(p, road, n, args.integrator, road.slew, periodic=not window, fix_dpsi0=window and not args.free_heading)
@@ -555,6 +561,14 @@ def main():
         compare_segments(args)
         return
     p = cc.Vehicle(args.vehicle)
+    # The planner's grip scale: the friction and the brake torques derived from it
+    # (VehicleParams::scale_grip).
+    p.mu *= args.friction_scale
+    p.u_lo[1] *= args.friction_scale
+    p.u_lo[2] *= args.friction_scale
+    if args.friction_scale != 1.0 or args.v_max_mps is not None:
+        # lap_times.toml holds the car's own limits; a run with the planner's is printed only.
+        args.no_write = True
     if args.check:
         check(p)
         return

@@ -33,8 +33,10 @@ pub struct RoadOpts {
     /// state, else 15 m/s).
     #[arg(long)]
     pub initial_speed_mps: Option<f64>,
-    /// Lane margin the plans keep from each edge and obstacle [m] (default 0.5; 0.2 for an
-    /// obstacle scenario, whose bounds already hold a 1 m half-width of the car).
+    /// Lane margin the plans keep from each edge and obstacle [m] (default: 1 on a track,
+    /// the reference lap's edge margin, which leaves the tracker 0.8 m before the CG comes
+    /// within 0.2 m of an edge; 0.2 for an obstacle scenario, whose bounds already hold a
+    /// 1 m half-width of the car; 0.5 otherwise).
     #[arg(long)]
     pub lane_margin_m: Option<f64>,
     /// Scenario of an obstacle file to drive (with --scenario config/scenarios/collision_avoidance.toml:
@@ -60,8 +62,14 @@ pub struct RoadOpts {
 impl RoadOpts {
     /// The lane margin of the plans.
     pub fn margin(&self) -> f64 {
-        self.lane_margin_m
-            .unwrap_or(if self.segment.is_some() { 0.2 } else { 0.5 })
+        let on_track = self.track.is_some() || self.track_profile.is_some();
+        self.lane_margin_m.unwrap_or(if self.segment.is_some() {
+            0.2
+        } else if on_track {
+            1.0
+        } else {
+            0.5
+        })
     }
 
     /// Adds the road options both processes take to `c`.

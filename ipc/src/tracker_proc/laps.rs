@@ -27,7 +27,7 @@ const PLANS_PER_S: f64 = 20.0;
 pub type TraceRow = [f64; 6];
 
 /// One logged plan: where the car was, the plan's origin and grid, its status and solve
-/// time, and its node speeds.
+/// time, and its node speeds and lateral offsets.
 #[derive(Debug, Clone, Copy)]
 pub struct PlanRow {
     /// Car's s when the plan arrived \[m\].
@@ -42,6 +42,8 @@ pub struct PlanRow {
     pub solve_time_s: f64,
     /// Node speeds [m/s].
     pub v: [f64; HORIZON_N + 1],
+    /// Node lateral offsets e \[m\].
+    pub e: [f64; HORIZON_N + 1],
 }
 
 /// The drive's log; every field is updated in place.
@@ -120,8 +122,10 @@ impl RunLog {
     pub fn plan(&mut self, m: &Trajectory, s_car: f64) {
         if self.plans.len() < self.plans.capacity() {
             let mut v = [0.0; HORIZON_N + 1];
+            let mut e = [0.0; HORIZON_N + 1];
             for k in 0..=HORIZON_N {
                 v[k] = m.x[k][ix::V];
+                e[k] = m.x[k][ix::E];
             }
             self.plans.push(PlanRow {
                 s_car,
@@ -130,6 +134,7 @@ impl RunLog {
                 status: m.status,
                 solve_time_s: m.solve_time_s,
                 v,
+                e,
             });
         }
     }
@@ -190,7 +195,8 @@ impl RunLog {
     }
 
     /// Writes `driven.csv` (t, s, e, V, beta, dpsi every 10 ms) and `plans.csv` (one row
-    /// per plan taken: car s, origin, grid, status, solve time, node speeds) into `dir`,
+    /// per plan taken: car s, origin, grid, status, solve time, node speeds v0..v100, node
+    /// lateral offsets e0..e100) into `dir`,
     /// each file whole or not at all.
     pub fn write(&self, dir: &Path) -> Result<(), String> {
         use std::io::Write;
@@ -208,6 +214,9 @@ impl RunLog {
             for k in 0..=HORIZON_N {
                 write!(w, ",v{k}")?;
             }
+            for k in 0..=HORIZON_N {
+                write!(w, ",e{k}")?;
+            }
             writeln!(w)?;
             for p in &self.plans {
                 write!(
@@ -215,7 +224,7 @@ impl RunLog {
                     "{},{},{},{},{}",
                     p.s_car, p.s_origin, p.ds, p.status, p.solve_time_s
                 )?;
-                for v in &p.v {
+                for v in p.v.iter().chain(&p.e) {
                     write!(w, ",{v}")?;
                 }
                 writeln!(w)?;

@@ -47,7 +47,8 @@ pub fn read(dir: &Path) -> Result<(Driven, Vec<PlanLine>), String> {
             ds: v[2],
             status: v[3] as u32,
             solve_time_s: v[4],
-            v: v[5..].to_vec(),
+            // v0..vN, then e0..eN.
+            v: v[5..5 + (v.len() - 5) / 2].to_vec(),
         })
         .collect();
     Ok((Driven { rows }, plans))

@@ -9,8 +9,8 @@
 //! and u_ref the plan's control a preview time t_p ahead: a command takes the actuator
 //! latency (transport delay plus steering lag) to reach the tires, by when the car has
 //! driven V t_p further. The heading error is wrapped into (-pi, pi]. The feedback acts on
-//! steering, rear torque and front brake (the plant clamps the brake to braking). The gain is designed
-//! on the error augmented by the steering actuator's error delta_est - delta_ref(s), where
+//! steering, rear torque and front brake (the plant clamps the brake to braking). The gain
+//! is designed on the error augmented by the steering actuator's error delta_est - delta_ref(s), where
 //! delta_est is the actuator's steering as the tracker's model of its own actuator gives it
 //! (the commands sent, delayed by the transport delay and filtered by the first-order lag;
 //! [`Controller::applied`]). Allocates nothing.
@@ -156,6 +156,29 @@ mod tests {
         }
     }
 
+    /// The car of the default mismatch in straight-line cruise at `v` (from the planner's
+    /// vehicle `p`, noise seed 5) and a controller for it at 1 kHz with a 70 ms preview.
+    fn mismatched_car_and_controller(p: &VehicleParams, v: f64) -> (Car, Controller) {
+        let mismatch = Mismatch::from_arg("default").unwrap();
+        let car = Car::new(
+            p,
+            &mismatch,
+            crate::plant::Plant::cruise(*p, v).x,
+            CONTROL_DT,
+            5,
+        );
+        let actuator = Actuator {
+            steering_lag_s: mismatch.actuator.steering_lag_s,
+            delay_steps: car.delay_steps(),
+        };
+        let ctl = Controller::new(p, CONTROL_DT, 0.07, actuator).unwrap();
+        (car, ctl)
+    }
+
+    /// Control period of the tests \[s\] and plant steps per period.
+    const CONTROL_DT: f64 = 0.001;
+    const SUBSTEPS: usize = 4;
+
     /// From 0.5 m off a straight plan, with the default mismatch (the controller designed
     /// on the nominal model, fed the noisy state), the car is back within 0.1 m of the plan
     /// after 3 s, without overshooting by more than 0.1 m, and holds the plan's speed.
@@ -163,30 +186,17 @@ mod tests {
     fn the_car_returns_to_a_straight_plan_despite_the_default_mismatch() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let p = planner::config::load_vehicle(&root.join("config/vehicles/lc500.toml")).unwrap();
-        let mismatch = Mismatch::from_arg("default").unwrap();
         let road = ClosedRoad::new(vec![(0.0, 0.0)], 10_000.0, -4.0, 4.0);
-        let (control_dt, substeps) = (0.001, 4);
         let v = 20.0;
-        let mut car = Car::new(
-            &p,
-            &mismatch,
-            crate::plant::Plant::cruise(p, v).x,
-            control_dt,
-            5,
-        );
+        let (mut car, mut ctl) = mismatched_car_and_controller(&p, v);
         car.plant.x[ix::E] = 0.5;
-        let actuator = Actuator {
-            steering_lag_s: mismatch.actuator.steering_lag_s,
-            delay_steps: car.delay_steps(),
-        };
-        let mut ctl = Controller::new(&p, control_dt, 0.07, actuator).unwrap();
         let plan = straight_plan(v);
         let (mut lowest, mut last_second_max) = (f64::INFINITY, 0.0f64);
         for k in 0..3000 {
             let y = car.measure();
             let (u, _) = ctl.control(&plan, &y).expect("covered");
             ctl.applied(u[iu::DELTA]);
-            car.drive(u, &road, substeps, control_dt / substeps as f64);
+            car.drive(u, &road, SUBSTEPS, CONTROL_DT / SUBSTEPS as f64);
             let e = car.plant.x[ix::E];
             lowest = lowest.min(e);
             if k >= 2000 {
@@ -210,9 +220,7 @@ mod tests {
     fn a_heavier_car_holds_a_braking_plans_speed_with_the_front_brake() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let p = planner::config::load_vehicle(&root.join("config/vehicles/lc500.toml")).unwrap();
-        let mismatch = Mismatch::from_arg("default").unwrap();
         let road = ClosedRoad::new(vec![(0.0, 0.0)], 10_000.0, -4.0, 4.0);
-        let (control_dt, substeps) = (0.001, 4);
         let (v0, decel) = (30.0, 4.0);
         let t_bf = -p.m * decel * p.r_w;
         let mut plan = straight_plan(v0);
@@ -224,24 +232,13 @@ mod tests {
         for u in plan.u.iter_mut() {
             u[iu::TBF] = t_bf;
         }
-        let mut car = Car::new(
-            &p,
-            &mismatch,
-            crate::plant::Plant::cruise(p, v0).x,
-            control_dt,
-            5,
-        );
-        let actuator = Actuator {
-            steering_lag_s: mismatch.actuator.steering_lag_s,
-            delay_steps: car.delay_steps(),
-        };
-        let mut ctl = Controller::new(&p, control_dt, 0.07, actuator).unwrap();
+        let (mut car, mut ctl) = mismatched_car_and_controller(&p, v0);
         let (mut worst, mut brake_sum, mut n) = (0.0f64, 0.0, 0);
         for k in 0..2500 {
             let y = car.measure();
             let (u, r) = ctl.control(&plan, &y).expect("covered");
             ctl.applied(u[iu::DELTA]);
-            car.drive(u, &road, substeps, control_dt / substeps as f64);
+            car.drive(u, &road, SUBSTEPS, CONTROL_DT / SUBSTEPS as f64);
             if k >= 1500 {
                 let truth = reference(&plan, car.plant.x[ix::S]).expect("covered");
                 worst = worst.max((car.plant.x[ix::V] - truth.x[ix::V]).abs());

@@ -343,7 +343,7 @@ impl PlannerLoop {
                 args.relaxed_saturation
             )));
         }
-        if !(0.5..=1.0).contains(&args.friction_scale) {
+        if !planner::model::GRIP_SCALES.contains(&args.friction_scale) {
             return Err(PlannerProcError::Setup(format!(
                 "--friction-scale {}: must be in [0.5, 1]",
                 args.friction_scale

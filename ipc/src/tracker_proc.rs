@@ -215,7 +215,7 @@ fn check_args(args: &TrackerArgs) -> Result<(), TrackerProcError> {
         (
             "--friction-scale",
             args.friction_scale,
-            (0.5..=1.0).contains(&args.friction_scale),
+            planner::model::GRIP_SCALES.contains(&args.friction_scale),
             "must lie in [0.5, 1]",
         ),
         (

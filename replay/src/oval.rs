@@ -165,9 +165,12 @@ fn warm_plan(
         return Err(OvalError::Options("a drive plan has a fixed start".into()));
     };
     let (mut gx, mut gu) = (vec![[0.0; NX]; N + 1], vec![[0.0; planner::model::NU]; N]);
-    if let Some((xs, us)) = planner.warm_source() {
-        shift_plan(xs, us, spec.ds(), shift, &x0, &mut gx, &mut gu);
-    }
+    let Some((xs, us)) = planner.warm_source() else {
+        return Err(OvalError::Options(format!(
+            "plan {seq}: no successful plan to warm-start from"
+        )));
+    };
+    shift_plan(xs, us, spec.ds(), shift, &x0, &mut gx, &mut gu);
     let opts = WarmOptions::default();
     let t0 = Instant::now();
     let r = planner.replan_warm(

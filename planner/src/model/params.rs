@@ -71,6 +71,9 @@ pub struct ParamError {
     pub expected: String,
 }
 
+/// The grip scales a planner may plan with ([`VehicleParams::scale_grip`]).
+pub const GRIP_SCALES: std::ops::RangeInclusive<f64> = 0.5..=1.0;
+
 impl VehicleParams {
     /// Scales the grip by `f`: the tire-road friction and the two brake torque limits the
     /// vehicle file derives from it (`T_bf_min` = mu F_zf,static R_w, `T_comb_min` just

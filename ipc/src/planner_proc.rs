@@ -93,8 +93,9 @@ pub struct PlannerArgs {
     pub lane_margin_m: f64,
     /// Lane margin of a relaxed plan [m] (capped at --lane-margin-m): after a cycle without a
     /// plan of its own, the next cycles on a closed road plan with this margin and the tire
-    /// saturation bound --relaxed-saturation (docs/closed-loop.md).
-    #[arg(long, default_value_t = 0.2)]
+    /// saturation bound --relaxed-saturation (docs/closed-loop.md). 0.6 m leaves the
+    /// tracker 0.4 m of lateral error before the CG comes within 0.2 m of an edge.
+    #[arg(long, default_value_t = 0.6)]
     pub relaxed_margin_m: f64,
     /// Tire saturation bound of a relaxed plan (sigma - sigma_sl <= this; at least the
     /// vehicle file's eps_sat).

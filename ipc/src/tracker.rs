@@ -177,8 +177,13 @@ fn wrap(a: f64) -> f64 {
 /// Tracking errors (actual minus planned).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Errors {
-    /// Lateral error e - e_ref \[m\].
+    /// Lateral error e - e_ref along the road normal \[m\].
     pub e: f64,
+    /// Cross-track error: the car's distance from the planned path, across the path,
+    /// (e - e_ref) cos(dpsi_ref + beta_ref) (the plan's course relative to the road) \[m\].
+    /// At a heading across the road (a hairpin) the road normal and the path normal part,
+    /// and e - e_ref overstates how far the car is from the path.
+    pub cross: f64,
     /// Heading error dpsi - dpsi_ref \[rad\].
     pub dpsi: f64,
     /// Speed error V - V_ref [m/s].
@@ -189,8 +194,10 @@ pub struct Errors {
 
 /// Tracking errors of state x against the reference `r`. Allocates nothing.
 pub fn errors(x: &[f64; NX], r: &Reference) -> Errors {
+    let e = x[ix::E] - r.x[ix::E];
     Errors {
-        e: x[ix::E] - r.x[ix::E],
+        e,
+        cross: e * (r.x[ix::DPSI] + r.x[ix::BETA]).cos(),
         dpsi: wrap(x[ix::DPSI] - r.x[ix::DPSI]),
         v: x[ix::V] - r.x[ix::V],
         beta: x[ix::BETA] - r.x[ix::BETA],
@@ -387,6 +394,37 @@ mod brake_tests {
                 assert!(plant.stopped, "s0 {s0} v0 {v0}: not stopped");
                 assert!(lo > -3.0 && hi < 3.0, "s0 {s0} v0 {v0}: e in [{lo}, {hi}]");
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod error_tests {
+    use super::*;
+
+    /// On a straight road the planned path through (0, e_ref) at course angle
+    /// chi = dpsi_ref + beta_ref is a line; a car at (0, e) is |(e - e_ref) cos chi| from
+    /// it (the point-to-line distance in the plane). The cross-track error is that
+    /// distance; the road-normal error is not, once chi is large.
+    #[test]
+    fn the_cross_track_error_is_the_distance_from_the_planned_path() {
+        for (dpsi, beta) in [(0.0, 0.0), (0.3, -0.05), (-0.9, -0.1), (1.2, 0.2)] {
+            let mut r = Reference {
+                x: [0.0; NX],
+                u: [0.0; NU],
+            };
+            r.x[ix::E] = 2.0;
+            r.x[ix::DPSI] = dpsi;
+            r.x[ix::BETA] = beta;
+            let mut x = r.x;
+            x[ix::E] = 3.0;
+            let chi: f64 = dpsi + beta;
+            // Distance from (0, 3) to the line through (0, 2) along (cos chi, sin chi).
+            let (dx, dy) = (0.0, 1.0);
+            let distance = (dx * chi.sin() - dy * chi.cos()).abs();
+            let err = errors(&x, &r);
+            assert!((err.cross.abs() - distance).abs() < 1e-12, "chi {chi}");
+            assert_eq!(err.e, 1.0);
         }
     }
 }

@@ -145,6 +145,8 @@ struct Track {
     n: u64,
     sum_e2: f64,
     max_e: f64,
+    sum_cross2: f64,
+    max_cross: f64,
     max_beta: f64,
     max_dpsi: f64,
     max_v: f64,
@@ -541,6 +543,8 @@ impl TrackerLoop {
                     stats.n += 1;
                     stats.sum_e2 += err.e * err.e;
                     stats.max_e = stats.max_e.max(err.e.abs());
+                    stats.sum_cross2 += err.cross * err.cross;
+                    stats.max_cross = stats.max_cross.max(err.cross.abs());
                     stats.max_beta = stats.max_beta.max(err.beta.abs());
                     stats.max_dpsi = stats.max_dpsi.max(err.dpsi.abs());
                     stats.max_v = stats.max_v.max(err.v.abs());
@@ -605,11 +609,14 @@ impl TrackerLoop {
     fn report(&self, args: &TrackerArgs, end_reason: &str) -> serde_json::Value {
         let (plant, stats, inbox, road) =
             (&self.car.plant, &self.stats, &self.inbox, &self.sc.road);
-        let rms = if stats.n > 0 {
-            (stats.sum_e2 / stats.n as f64).sqrt()
-        } else {
-            0.0
+        let rms_of = |sum: f64| {
+            if stats.n > 0 {
+                (sum / stats.n as f64).sqrt()
+            } else {
+                0.0
+            }
         };
+        let rms = rms_of(stats.sum_e2);
         let log = self.log.json();
         let lane_kept = log["lane_kept"].as_bool().unwrap_or(false);
         let driven = plant.x[ix::S] - args.start_s;
@@ -644,6 +651,8 @@ impl TrackerLoop {
             "plans_not_converged": self.plans_not_converged,
             "max_lateral_error_m": stats.max_e,
             "rms_lateral_error_m": rms,
+            "max_cross_track_error_m": stats.max_cross,
+            "rms_cross_track_error_m": rms_of(stats.sum_cross2),
             "max_sideslip_error_rad": stats.max_beta,
             "max_heading_error_rad": stats.max_dpsi,
             "max_speed_error_mps": stats.max_v,

@@ -286,3 +286,49 @@ fn saturation_rows_follow_the_initial_state_scale() {
         );
     }
 }
+
+/// A fixed start measured in a slide (rear tire past its sliding slip by e_0 > eps_sat)
+/// cannot be back within eps_sat at the next node: the rear rows of the first K nodes are
+/// bounded by eps_sat + (e_0 - eps_sat)(1 - k / K), then eps_sat; the front rows and every
+/// row of a start within eps_sat keep eps_sat.
+#[test]
+fn a_sliding_start_ramps_the_rear_saturation_bound_down_from_its_own_excess() {
+    use planner::model::{ix, saturation};
+    use planner::ocp::scaling::saturation_scale;
+    use planner::ocp::transcription::{RowKind, SATURATION_RAMP_NODES};
+    let (spec, _) = oval();
+    let eps = spec.vehicle.eps_sat;
+    let mut sliding = X0;
+    sliding[ix::BETA] = -0.3;
+    sliding[ix::R] = 0.6;
+    let excess = saturation(&spec.vehicle, &sliding, &[0.0; NU])[1];
+    assert!(excess > eps + 0.05, "the start slides: {excess}");
+    assert!(saturation(&spec.vehicle, &X0, &[0.0; NU])[1] <= eps);
+    let mut nlp = ImplicitEulerNlp::<N>::new(spec).unwrap();
+    let scale = saturation_scale(&InitialState::Fixed(X0));
+    for (x0, e0) in [(sliding, excess), (X0, eps)] {
+        nlp.set_initial(InitialState::Fixed(x0));
+        let b = bounds(&nlp);
+        for i in 0..nlp.dims().m {
+            let info = nlp.describe_row(i);
+            let RowKind::Saturation { rear } = info.kind else {
+                continue;
+            };
+            let k = info.node;
+            let physical = if !rear {
+                eps
+            } else if k == 0 {
+                continue; // never active at a fixed start
+            } else if k < SATURATION_RAMP_NODES {
+                eps + (e0 - eps) * (1.0 - k as f64 / SATURATION_RAMP_NODES as f64)
+            } else {
+                eps
+            };
+            let want = physical / scale;
+            assert!(
+                (b.gu[i] - want).abs() <= 1e-12 * want.abs(),
+                "row {i} node {k}"
+            );
+        }
+    }
+}

@@ -74,8 +74,8 @@ pub struct ClosedLoopArgs {
     warm_start: String,
     /// Lane margin of a relaxed plan [m] (`planner_proc --relaxed-margin-m`): after a
     /// cycle without a plan of its own, the next cycles on a closed road plan with the tire
-    /// saturation rows off and this margin.
-    #[arg(long, default_value_t = 0.2)]
+    /// saturation bound `--relaxed-saturation` and this margin.
+    #[arg(long, default_value_t = 0.6)]
     relaxed_margin_m: f64,
     /// Tire saturation bound of a relaxed plan (`planner_proc --relaxed-saturation`).
     #[arg(long, default_value_t = 0.05)]
@@ -347,6 +347,8 @@ fn summary_json(
         "plans_received": f("plans_received"),
         "max_lateral_error_m": f("max_lateral_error_m"),
         "rms_lateral_error_m": f("rms_lateral_error_m"),
+        "max_cross_track_error_m": f("max_cross_track_error_m"),
+        "rms_cross_track_error_m": f("rms_cross_track_error_m"),
         "max_sideslip_error_rad": f("max_sideslip_error_rad"),
         "lane_kept": f("lane_kept"),
         "mismatch": f("mismatch"),
@@ -366,8 +368,8 @@ fn summary_json(
 /// The one-line human summary of [`summary_json`]'s object.
 fn summary_text(obj: &serde_json::Value) -> String {
     format!(
-        "closed loop: {:.1} m ({:.2} laps), {} plans, lateral error vs plan max {:.3} m rms {:.3} m, \
-         max sideslip error {:.3} rad, lane kept {}; plan latency p50 {:.1} ms p99 {:.1} ms; \
+        "closed loop: {:.1} m ({:.2} laps), {} plans, lateral error vs plan max {:.3} m rms {:.3} m \
+         (across the path max {:.3} m), max sideslip error {:.3} rad, lane kept {}; plan latency p50 {:.1} ms p99 {:.1} ms; \
          IPC latency p50 {:.1} us p99 {:.1} us; budget {} ms, plans driven: {} converged, \
          {} best iterates, {} previous shifted",
         obj["laps_or_distance_m"].as_f64().unwrap_or(f64::NAN),
@@ -375,6 +377,7 @@ fn summary_text(obj: &serde_json::Value) -> String {
         obj["plans_received"],
         obj["max_lateral_error_m"].as_f64().unwrap_or(f64::NAN),
         obj["rms_lateral_error_m"].as_f64().unwrap_or(f64::NAN),
+        obj["max_cross_track_error_m"].as_f64().unwrap_or(f64::NAN),
         obj["max_sideslip_error_rad"].as_f64().unwrap_or(f64::NAN),
         obj["lane_kept"],
         obj["plan_latency_ms_p50"].as_f64().unwrap_or(f64::NAN),

@@ -2,6 +2,14 @@
 //! of [`variable_bounds`], the initial-condition rows ([`initial_row_bounds`]), defect rows
 //! = 0, front friction rows >= 0 (R9), saturation rows <= eps_sat (R5, scaled) and the
 //! control-rate rows ([`rate_row_bounds`]).
+//!
+//! A fixed start whose rear tire is already past its sliding slip by e_0 > eps_sat (a car
+//! measured in a slide) cannot bring it back within one interval: the rear slip follows the
+//! sideslip and yaw rate, which take several tenths of a second to turn. The rear rows of
+//! the first [`SATURATION_RAMP_NODES`] nodes are therefore bounded by
+//! eps_sat + (e_0 - eps_sat) (1 - k / K), from the start's own excess down to eps_sat,
+//! as the lane margin ramps in from the car's own position. A start within eps_sat
+//! changes no bound.
 
 use super::error::check_node_vectors;
 use super::{DefectScheme, Transcription, TranscriptionError};
@@ -15,6 +23,11 @@ use crate::ocp::spec::InitialState;
 /// Upper bound of the rear saturation row at node 0 with a fixed initial state (scaled;
 /// sigma - sigma_sl <= 100, never active).
 const SATURATION_FIXED_X0_BOUND: f64 = 1e3;
+
+/// Nodes K over which the rear saturation bound ramps down from a sliding start's excess
+/// to eps_sat (20 m at the closed loop's 2.5 m spacing: a slide of 0.3 rad sideslip at
+/// 25 m/s takes several tenths of a second to catch).
+pub const SATURATION_RAMP_NODES: usize = 8;
 
 impl<S: DefectScheme, const N: usize> Transcription<S, N> {
     /// Recomputes the variable and row bounds from the spec in place (allocation-free).
@@ -75,6 +88,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
     /// Writes the variable bounds and the row bounds of the spec.
     fn compute_bounds(&self, x_l: &mut [f64], x_u: &mut [f64], g_l: &mut [f64], g_u: &mut [f64]) {
         let p = &self.spec.vehicle;
+        let rear_start = self.rear_start_excess();
         variable_bounds(&self.layout, &self.spec, x_l, x_u);
         for (r, &i) in INITIAL_ROWS.iter().enumerate() {
             (g_l[r], g_u[r]) = initial_row_bounds(&self.spec, i);
@@ -94,6 +108,10 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 // steering controls its slip).
                 if k == 0 && matches!(self.spec.initial, InitialState::Fixed(_)) {
                     g_u[st.row_sat + 1] = SATURATION_FIXED_X0_BOUND;
+                } else if k < SATURATION_RAMP_NODES && rear_start > p.eps_sat {
+                    let w = 1.0 - k as f64 / SATURATION_RAMP_NODES as f64;
+                    g_u[st.row_sat + 1] = (p.eps_sat + (rear_start - p.eps_sat) * w)
+                        / saturation_scale(&self.spec.initial);
                 }
             }
             if k >= 1 {
@@ -102,6 +120,23 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                     &mut g_u[st.row_rate..st.row_rate + RATE_ROWS],
                 );
             }
+        }
+    }
+
+    /// The rear tire's sigma - sigma_sl at a fixed start (it depends on the state alone;
+    /// -inf for a free start or a start the model cannot evaluate).
+    fn rear_start_excess(&self) -> f64 {
+        match &self.spec.initial {
+            InitialState::Fixed(x0) => {
+                let e =
+                    crate::model::saturation(&self.spec.vehicle, x0, &[0.0; crate::model::NU])[1];
+                if e.is_finite() {
+                    e
+                } else {
+                    f64::NEG_INFINITY
+                }
+            }
+            InitialState::Free => f64::NEG_INFINITY,
         }
     }
 }

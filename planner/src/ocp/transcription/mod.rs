@@ -55,6 +55,7 @@ mod sparsity;
 mod stage_eval;
 pub mod steps;
 
+pub use bounds::SATURATION_RAMP_NODES;
 pub use crank_nicolson::CrankNicolson;
 pub use error::TranscriptionError;
 pub use explicit_rk::{ExplicitRk2, ExplicitRk4};

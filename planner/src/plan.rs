@@ -274,8 +274,8 @@ impl<const N: usize> Planner<N> {
             .initial_domain(kappa, e_min, e_max)
             .check(&x0)?;
         // In place: same sparsity, so the solver's symbolic analysis stays valid.
-        self.nlp.update_road(kappa, e_min, e_max)?;
-        self.nlp.set_initial(InitialState::Fixed(x0));
+        self.nlp
+            .update_window(kappa, e_min, e_max, InitialState::Fixed(x0))?;
         Ok(())
     }
 

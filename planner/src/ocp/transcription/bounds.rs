@@ -53,6 +53,35 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         e_min: &[f64],
         e_max: &[f64],
     ) -> Result<(), TranscriptionError> {
+        self.write_road(kappa, e_min, e_max)?;
+        self.refresh_bounds();
+        Ok(())
+    }
+
+    /// [`Self::update_road`] and [`Self::set_initial`] in one bounds update: a replanning
+    /// cycle changes both, and the bounds depend on both (the lane rows on the road, the
+    /// initial and saturation rows on the start). On a length mismatch nothing is changed.
+    pub fn update_window(
+        &mut self,
+        kappa: &[f64],
+        e_min: &[f64],
+        e_max: &[f64],
+        initial: InitialState,
+    ) -> Result<(), TranscriptionError> {
+        self.write_road(kappa, e_min, e_max)?;
+        self.spec.initial = initial;
+        self.refresh_bounds();
+        Ok(())
+    }
+
+    /// Copies the road into the spec after checking the lengths (nothing changes on a
+    /// mismatch); the bounds are left to the caller.
+    fn write_road(
+        &mut self,
+        kappa: &[f64],
+        e_min: &[f64],
+        e_max: &[f64],
+    ) -> Result<(), TranscriptionError> {
         check_node_vectors::<N>([
             ("kappa", kappa.len()),
             ("e_min", e_min.len()),
@@ -61,7 +90,6 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         self.spec.kappa.copy_from_slice(kappa);
         self.spec.e_min.copy_from_slice(e_min);
         self.spec.e_max.copy_from_slice(e_max);
-        self.refresh_bounds();
         Ok(())
     }
 

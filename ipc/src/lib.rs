@@ -4,7 +4,7 @@
 //! services both processes share; [`road`] samples the closed road ahead; [`plant`]
 //! simulates the full vehicle model in time; [`tracker`] is the feed-forward + feedback
 //! controller of the simple feedback kind, [`controller`] the feed-forward plus LQR one
-//! ([`lqr`]: its gains); [`mismatch`] makes the plant differ from
+//! ([`lqr`]: its gains), fed the state [`estimator`] filters; [`mismatch`] makes the plant differ from
 //! the planner's model; [`planner_proc`] and [`tracker_proc`] are the two process loops;
 //! [`stats`] collects latencies; [`kinds`] counts plans by kind; [`out`] writes the
 //! standard streams without panicking
@@ -14,6 +14,7 @@
 
 pub mod clock;
 pub mod controller;
+pub mod estimator;
 pub mod kinds;
 pub mod lqr;
 pub mod mismatch;

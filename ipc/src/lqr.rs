@@ -63,12 +63,14 @@ pub struct Weights {
 impl Default for Weights {
     /// Position and heading first (0.05 m, 0.02 rad), speed loosely (0.5 m/s), yaw rate
     /// and sideslip very loosely (the plan's values come from the nominal model, which a
-    /// mismatched car cannot match in a steady curve), the wheel speed tightly (the rear
-    /// wheel mode is fast and unstable past the tire peak), the actuator's steering as
-    /// loosely as the steering correction (0.02 rad).
+    /// mismatched car cannot match in a steady curve), the wheel speed tightly (0.3 m/s: the
+    /// rear wheel mode is fast and unstable past the tire peak; at 0.2 m/s the torque loop
+    /// rings at its limits from 55 m/s on behind a 20 ms transport delay, which the design
+    /// does not model), the actuator's steering as loosely as the steering correction
+    /// (0.02 rad).
     fn default() -> Self {
         Self {
-            z_max: [1.0, 0.5, 0.5, 0.2, 0.05, 0.02, 0.02],
+            z_max: [1.0, 0.5, 0.5, 0.3, 0.05, 0.02, 0.02],
             v_max: [0.02, 600.0, 600.0],
         }
     }

@@ -319,37 +319,43 @@ struct PlannerLoop {
     state_ipc_lat: Latency,
 }
 
+/// Checks the numeric options; the error names the first one out of its range.
+fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
+    if !(args.rate_hz > 0.0 && args.rate_hz <= 1000.0) {
+        return Err(PlannerProcError::Setup(
+            "--rate-hz must be in (0, 1000]".into(),
+        ));
+    }
+    if args.lane_margin_m.is_nan() || args.lane_margin_m < 0.0 {
+        return Err(PlannerProcError::Setup(
+            "--lane-margin-m must be >= 0".into(),
+        ));
+    }
+    if args.relaxed_margin_m.is_nan() || args.relaxed_margin_m < 0.0 {
+        return Err(PlannerProcError::Setup(format!(
+            "--relaxed-margin-m {}: must be >= 0",
+            args.relaxed_margin_m
+        )));
+    }
+    if !(0.0..=1.0).contains(&args.relaxed_saturation) {
+        return Err(PlannerProcError::Setup(format!(
+            "--relaxed-saturation {}: must be in [0, 1]",
+            args.relaxed_saturation
+        )));
+    }
+    if !planner::model::GRIP_SCALES.contains(&args.friction_scale) {
+        return Err(PlannerProcError::Setup(format!(
+            "--friction-scale {}: must be in [0.5, 1]",
+            args.friction_scale
+        )));
+    }
+    Ok(())
+}
+
 impl PlannerLoop {
     /// Checks the options, loads the files and allocates the planner and the recorder.
     fn setup(args: &PlannerArgs) -> Result<Self, PlannerProcError> {
-        if !(args.rate_hz > 0.0 && args.rate_hz <= 1000.0) {
-            return Err(PlannerProcError::Setup(
-                "--rate-hz must be in (0, 1000]".into(),
-            ));
-        }
-        if args.lane_margin_m.is_nan() || args.lane_margin_m < 0.0 {
-            return Err(PlannerProcError::Setup(
-                "--lane-margin-m must be >= 0".into(),
-            ));
-        }
-        if args.relaxed_margin_m.is_nan() || args.relaxed_margin_m < 0.0 {
-            return Err(PlannerProcError::Setup(format!(
-                "--relaxed-margin-m {}: must be >= 0",
-                args.relaxed_margin_m
-            )));
-        }
-        if !(0.0..=1.0).contains(&args.relaxed_saturation) {
-            return Err(PlannerProcError::Setup(format!(
-                "--relaxed-saturation {}: must be in [0, 1]",
-                args.relaxed_saturation
-            )));
-        }
-        if !planner::model::GRIP_SCALES.contains(&args.friction_scale) {
-            return Err(PlannerProcError::Setup(format!(
-                "--friction-scale {}: must be in [0.5, 1]",
-                args.friction_scale
-            )));
-        }
+        check_args(args)?;
         let (budget_ms, first_budget_ms) = budget::budgets_ms(args)?;
         let cold_guess = GuessKind::parse(&args.cold_guess).unwrap_or(GuessKind::Equilibrium);
         crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;

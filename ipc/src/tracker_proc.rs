@@ -3,7 +3,7 @@
 //! fixed rate, flags a stale plan and brakes to a stop, and reports tracking errors.
 //!
 //! Each run draws its own run id, stamps it on every state it publishes and follows only
-//! plans made from its own states ([`Ownership`]); other valid plans are counted as foreign.
+//! plans made from its own states ([`crate::tracker::Ownership`]); other valid plans are counted as foreign.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -17,23 +17,24 @@ use planner::model::{iu, ix};
 use crate::clock::monotonic_ns;
 use crate::controller::{Actuator, Controller};
 use crate::elog;
+use crate::estimator::Estimator;
 use crate::kinds::KindCounts;
 use crate::mismatch::Mismatch;
 use crate::msg::PlanKind;
-use crate::msg::{
-    new_run_id, RoadId, RunId, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED,
-};
+use crate::msg::{new_run_id, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED};
 use crate::plant::car::Car;
 use crate::road::Scenario;
 use crate::services::{ipc_err, publish_state, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
-use crate::tracker::{brake_to_stop, ForeignPlans, Gains, Ownership};
+use crate::tracker::{brake_to_stop, Gains};
 
+mod inbox;
 mod laps;
 mod outcome;
 mod start;
 
+use inbox::Inbox;
 pub use laps::RunLog;
 use outcome::outcome;
 pub use start::initial_state;
@@ -74,6 +75,10 @@ pub struct TrackerArgs {
     /// Seed of the measurement noise.
     #[arg(long, default_value_t = 1)]
     pub noise_seed: u64,
+    /// Time constant of the state estimator [ms] (the feedback and the planner get the
+    /// filtered state; crate::estimator). 0: the raw measurement.
+    #[arg(long, default_value_t = 20.0)]
+    pub estimator_tau_ms: f64,
     /// Solver settings file (read for the road id only).
     #[arg(long, default_value = "config/solver.toml")]
     pub solver: PathBuf,
@@ -191,6 +196,12 @@ fn check_args(args: &TrackerArgs) -> Result<(), TrackerProcError> {
             "must be finite and > 0",
         ),
         (
+            "--estimator-tau-ms",
+            args.estimator_tau_ms,
+            (0.0..=1000.0).contains(&args.estimator_tau_ms),
+            "must lie in [0, 1000]",
+        ),
+        (
             "--time-scale",
             args.time_scale,
             (1e-3..=1e3).contains(&args.time_scale),
@@ -243,61 +254,6 @@ fn check_args(args: &TrackerArgs) -> Result<(), TrackerProcError> {
     }
 }
 
-/// Receives plans: drops invalid ones, refuses foreign ones ([`Ownership`]) and counts
-/// both; times the run's own plans.
-struct Inbox {
-    own: Ownership,
-    /// Own valid plans.
-    plans: u64,
-    /// Invalid plans.
-    rejected: u64,
-    foreign: ForeignPlans,
-    ipc_lat: Latency,
-    plan_lat: Latency,
-}
-
-impl Inbox {
-    fn new(run_id: RunId) -> Self {
-        Self {
-            own: Ownership::new(run_id),
-            plans: 0,
-            rejected: 0,
-            foreign: ForeignPlans::default(),
-            ipc_lat: Latency::new(),
-            plan_lat: Latency::new(),
-        }
-    }
-
-    /// True when `m` is a valid plan of this run (received at `now_ns`); logs the first
-    /// invalid and foreign ones. Allocates nothing unless it logs.
-    fn accept(&mut self, m: &Trajectory, road: RoadId, ds: f64, now_ns: u64) -> bool {
-        if let Err(e) = m.validate_for(road, ds) {
-            self.rejected += 1;
-            if self.rejected <= 10 {
-                elog!("tracker: dropped trajectory seq {}: {e}", m.seq);
-            }
-            return false;
-        }
-        // A valid plan made from another run's state is never followed.
-        if let Err(f) = self.own.check(m) {
-            self.foreign.count(&f);
-            let n = self.foreign.total();
-            if n <= 10 || n.is_multiple_of(1000) {
-                elog!(
-                    "tracker: ignored foreign trajectory seq {} ({n} so far): {f}",
-                    m.seq
-                );
-            }
-            return false;
-        }
-        self.ipc_lat.record_ns(now_ns.saturating_sub(m.stamp_ns));
-        self.plan_lat
-            .record_ns(now_ns.saturating_sub(m.from_state_stamp_ns));
-        self.plans += 1;
-        true
-    }
-}
-
 /// The shared-memory ports of the tracker process and its stop signals. The ports come
 /// before the services in field order, so they are dropped first.
 struct Ports {
@@ -342,7 +298,9 @@ struct TrackerLoop {
     plant_dt: f64,
     publish_dt: f64,
     car: Car,
-    /// The last measured state (what the feedback used and what is published).
+    /// Filters the measured state.
+    estimator: Estimator,
+    /// The last estimated state (what the feedback used and what is published).
     measured: [f64; planner::model::NX],
     controller: Controller,
     mismatch: Mismatch,
@@ -407,6 +365,11 @@ impl TrackerLoop {
             args.noise_seed,
         );
         let measured = car.measure();
+        let estimator = Estimator::new(
+            sc.spec.vehicle,
+            args.estimator_tau_ms * 1e-3,
+            args.control_dt_s,
+        );
         // The tracker knows its actuators' latency (not the vehicle's mismatch): the
         // feed-forward looks ahead by the transport delay plus the steering lag.
         let preview =
@@ -425,6 +388,7 @@ impl TrackerLoop {
             plant_dt,
             publish_dt,
             car,
+            estimator,
             measured,
             controller,
             mismatch,
@@ -529,8 +493,14 @@ impl TrackerLoop {
         let mut steps = 0;
         while car.plant.x[ix::T] + 0.5 * args.control_dt_s < target_t && steps < max_steps {
             steps += 1;
-            // The feedback sees the measured state; the statistics the true one.
+            // The feedback sees the estimated state; the statistics the true one.
             let y = car.measure();
+            let y = self.estimator.update(
+                &y,
+                car.measured_controls(),
+                road,
+                (self.substeps, self.plant_dt),
+            );
             self.measured = y;
             let control = if self.stale || self.no_feasible_plan {
                 None
@@ -744,51 +714,4 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         }
     }
     Ok(report)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::msg::{status_code, MSG_VERSION};
-    use planner::ip::Status;
-
-    /// A valid plan on road 7 (grid 2.5 m) made from state `seq` of run `run_id`.
-    fn plan(run_id: RunId, seq: u64) -> Box<Trajectory> {
-        let x = [0.0, 15.0, 0.0, 15.0, 0.0, 0.0, 0.0, 3.0, 1.0];
-        let mut p = Box::new(Trajectory::zeroed());
-        p.version = MSG_VERSION;
-        p.status = status_code(Status::Optimal);
-        p.road_id = 7;
-        p.ds = 2.5;
-        p.x_from = x;
-        p.x = [x; crate::msg::HORIZON_N + 1];
-        p.from_run_id = run_id;
-        p.from_state_seq = seq;
-        p
-    }
-
-    #[test]
-    fn the_inbox_takes_own_plans_and_counts_foreign_and_invalid_ones() {
-        let mut inbox = Inbox::new(0xabc);
-        inbox.own.next_seq();
-        inbox.own.next_seq();
-        // Own plans from states 1 and 2.
-        assert!(inbox.accept(&plan(0xabc, 1), 7, 2.5, 10));
-        assert!(inbox.accept(&plan(0xabc, 2), 7, 2.5, 10));
-        // A predecessor's plan, and an own-run plan from a state not yet published.
-        assert!(!inbox.accept(&plan(0xdef, 2), 7, 2.5, 10));
-        assert!(!inbox.accept(&plan(0xabc, 3), 7, 2.5, 10));
-        // An invalid plan is rejected, not foreign.
-        assert!(!inbox.accept(&plan(0xabc, 1), 8, 2.5, 10));
-        assert_eq!(inbox.plans, 2);
-        assert_eq!(inbox.rejected, 1);
-        assert_eq!(
-            inbox.foreign,
-            ForeignPlans {
-                run_id: 1,
-                state_seq: 1
-            }
-        );
-        assert_eq!(inbox.ipc_lat.count(), 2);
-    }
 }

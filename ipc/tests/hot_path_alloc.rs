@@ -213,8 +213,9 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
 }
 
 /// The tracker's 1 kHz step allocates nothing with the default plant mismatch: measuring
-/// (noise draw), the feed-forward plus LQR control (gain interpolation, plan lookup) and
-/// driving the car (delay line, steering lag, plant RK4 substeps).
+/// (noise draw), filtering the measurement (the estimator's model steps), the feed-forward
+/// plus LQR control (gain interpolation, plan lookup) and driving the car (delay line,
+/// steering lag, plant RK4 substeps).
 #[test]
 fn the_tracker_step_with_mismatch_allocates_nothing() {
     use ipc::controller::Controller;
@@ -258,8 +259,15 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
         node[ix::S] = k as f64 * plan.ds;
     }
     let mut steps = 0u64;
+    let mut estimator = ipc::estimator::Estimator::new(p, 0.02, control_dt);
     let mut step = |car: &mut Car| {
         let y = car.measure();
+        let y = estimator.update(
+            &y,
+            car.measured_controls(),
+            &sc.road,
+            (substeps, control_dt / substeps as f64),
+        );
         let (u, _) = controller
             .control(&plan, &y)
             .expect("the plan covers the car");

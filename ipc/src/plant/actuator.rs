@@ -76,6 +76,14 @@ impl Actuator {
     pub fn steering(&self) -> f64 {
         self.delta
     }
+
+    /// The controls acting on the plant now: the steering the wheels have reached and the
+    /// delayed torques. `None` before the first command.
+    pub fn acting(&self) -> Option<[f64; NU]> {
+        let mut u = self.delayed;
+        u[iu::DELTA] = self.delta;
+        self.primed.then_some(u)
+    }
 }
 
 #[cfg(test)]

@@ -19,6 +19,8 @@ pub struct Car {
     pub plant: Plant,
     actuator: Actuator,
     noise: StateNoise,
+    /// The controls acting when the state was last measured.
+    measured_u: Option<[f64; NU]>,
 }
 
 impl Car {
@@ -38,6 +40,7 @@ impl Car {
             plant: Plant::new(mismatch.apply(params), x0),
             actuator: Actuator::new(delay_steps, act.steering_lag_s),
             noise: StateNoise::new(mismatch.noise.sigma(), seed),
+            measured_u: None,
         }
     }
 
@@ -49,12 +52,21 @@ impl Car {
     /// The measured state: the true state plus one noise draw (a stopped car reads
     /// standstill exactly). The measured speeds stay non-negative.
     pub fn measure(&mut self) -> [f64; NX] {
+        self.measured_u = self.actuator.acting();
         if self.plant.stopped {
             return self.plant.x;
         }
         let mut y = self.noise.measure(&self.plant.x);
         y[ix::V] = y[ix::V].max(0.0);
         y
+    }
+
+    /// The controls acting at the wheels when the state was last measured
+    /// ([`crate::plant::actuator::Actuator::acting`]; a steering angle sensor reads the
+    /// road-wheel angle to a fraction of the state noise, so it is passed without noise).
+    /// `None` before the first command.
+    pub fn measured_controls(&self) -> Option<[f64; NU]> {
+        self.measured_u
     }
 
     /// Sends command `u` (saturated to the plant's limits) to the actuators and integrates

@@ -57,6 +57,10 @@ pub struct ClosedLoopArgs {
     /// Seed of the measurement noise (tracker only).
     #[arg(long, default_value_t = 1)]
     noise_seed: u64,
+    /// Time constant of the tracker's state estimator [ms] (`tracker_proc
+    /// --estimator-tau-ms`; 0: the raw measurement).
+    #[arg(long, default_value_t = 20.0)]
+    estimator_tau_ms: f64,
     /// Budget of one planning cycle's solve [ms] (`planner_proc --budget-ms`; default 80 %
     /// of the period).
     #[arg(long)]
@@ -257,7 +261,9 @@ fn spawn_pair(
     tc.arg("--mismatch")
         .arg(mismatch_arg(&args.mismatch))
         .arg("--noise-seed")
-        .arg(args.noise_seed.to_string());
+        .arg(args.noise_seed.to_string())
+        .arg("--estimator-tau-ms")
+        .arg(args.estimator_tau_ms.to_string());
     if let Some(path) = &args.plant_vehicle {
         tc.arg("--plant-vehicle").arg(resolve(path));
     }

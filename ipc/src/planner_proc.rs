@@ -43,11 +43,8 @@ mod send;
 pub use intake::{LastPlanned, Rejected};
 pub use record::{CycleRecorder, WarmRecord};
 
-/// Distance over which the lane margin ramps in from the lane edge, or from the car's own
-/// distance inside it \[m\] (4 nodes at the track's 2.5 m spacing). Over 20 m, min-time
-/// plans started near an edge stayed near it for most of a second, and a car re-planned
-/// from there cycle after cycle came within 0.01-0.11 m of the edge (docs/performance.md).
-pub const MARGIN_RAMP_M: f64 = 10.0;
+/// Distance over which the lane margin ramps in from the lane edge \[m\].
+pub const MARGIN_RAMP_M: f64 = 20.0;
 
 /// Lateral acceleration the start ramp assumes a car uses to stop moving toward an edge
 /// \[m/s^2\] (`ClosedRoad::window_from`; about the car's grip). Without the allowance, a

@@ -28,7 +28,7 @@ use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 use crate::clock::monotonic_ns;
 use crate::elog;
 use crate::msg::{RunId, Trajectory, VehicleState, HORIZON_N};
-use crate::road::{RoadWindow, Scenario};
+use crate::road::{RoadWindow, Scenario, StartRamp};
 use crate::services::{ipc_err, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
@@ -45,6 +45,10 @@ pub use record::{CycleRecorder, WarmRecord};
 
 /// Distance over which the lane margin ramps in from the lane edge \[m\].
 pub const MARGIN_RAMP_M: f64 = 20.0;
+
+/// Closest to an edge the drift allowance takes a plan's margin ramp \[m\]
+/// (`--margin-floor-m`, `StartRamp::floor_m`).
+pub const MARGIN_FLOOR_M: f64 = 0.3;
 
 /// Lateral acceleration the start ramp assumes a car uses to stop moving toward an edge
 /// \[m/s^2\] (`ClosedRoad::window_from`; about the car's grip). Without the allowance, a
@@ -97,6 +101,16 @@ pub struct PlannerArgs {
     /// tracker 0.4 m of lateral error before the CG comes within 0.2 m of an edge.
     #[arg(long, default_value_t = 0.6)]
     pub relaxed_margin_m: f64,
+    /// Distance over which a plan's lane margin ramps in from the car's own distance inside
+    /// an edge [m] (`RoadWindow` of `ClosedRoad::window_from`; the free-start solve and the
+    /// startup budget keep 20 m).
+    #[arg(long, default_value_t = MARGIN_RAMP_M)]
+    pub margin_ramp_m: f64,
+    /// Closest to an edge a plan's margin ramp starts for a car moving toward that edge
+    /// [m] (or the car's own distance, when smaller): the room its sideways motion needs
+    /// to stop is granted down to this floor, not to the edge.
+    #[arg(long, default_value_t = MARGIN_FLOOR_M)]
+    pub margin_floor_m: f64,
     /// Tire saturation bound of a relaxed plan (sigma - sigma_sl <= this; at least the
     /// vehicle file's eps_sat).
     #[arg(long, default_value_t = 0.05)]
@@ -292,6 +306,8 @@ struct PlannerLoop {
     v_min: f64,
     v_max: f64,
     margin: f64,
+    /// The margin's ramp: its length and its floor \[m\] (`StartRamp`).
+    ramp: (f64, f64),
     warm_start: bool,
     /// Guess of a cold solve.
     cold_guess: GuessKind,
@@ -335,6 +351,18 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
         return Err(PlannerProcError::Setup(format!(
             "--relaxed-margin-m {}: must be >= 0",
             args.relaxed_margin_m
+        )));
+    }
+    if !(args.margin_ramp_m >= 0.0 && args.margin_ramp_m <= 250.0) {
+        return Err(PlannerProcError::Setup(format!(
+            "--margin-ramp-m {}: must be in [0, 250]",
+            args.margin_ramp_m
+        )));
+    }
+    if !(args.margin_floor_m >= 0.0 && args.margin_floor_m <= 10.0) {
+        return Err(PlannerProcError::Setup(format!(
+            "--margin-floor-m {}: must be in [0, 10]",
+            args.margin_floor_m
         )));
     }
     if !(0.0..=1.0).contains(&args.relaxed_saturation) {
@@ -425,6 +453,7 @@ impl PlannerLoop {
             v_min,
             v_max,
             margin: args.lane_margin_m,
+            ramp: (args.margin_ramp_m, args.margin_floor_m),
             warm_start: args.warm_start == "on",
             cold_guess,
             recorder,
@@ -526,11 +555,17 @@ impl PlannerLoop {
             Some(r) if cy.relaxed_now => r.margin,
             _ => self.margin,
         };
+        let ramp = StartRamp {
+            margin,
+            length_m: self.ramp.0,
+            arrest_accel: ARREST_LATERAL_ACCEL_MPS2,
+            floor_m: self.ramp.1,
+        };
         self.sc.road.window_from(
             state.x[ix::S],
             (state.x[ix::E], e_dot),
             self.ds,
-            (margin, MARGIN_RAMP_M, ARREST_LATERAL_ACCEL_MPS2),
+            &ramp,
             &mut cy.road,
         );
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds

@@ -277,36 +277,63 @@ impl ClosedRoad {
     }
 
     /// [`Self::window`] for a car at lateral position `e0` moving sideways at `e_dot`
-    /// (V sin dpsi): on each side the margin ramps in from the car's own distance inside
-    /// that edge (at most `margin`) rather than from 0, so successive plans never lead a
-    /// car that keeps the margin closer to the edge than the margin, while a car already
-    /// inside it can still be planned for. A car moving toward an edge cannot stop at
-    /// once: that side's ramp starts from where its sideways motion can end,
-    /// `e_dot^2 / (2 a_lat)` further out (never past the edge), so the start is plannable
-    /// instead of locally infeasible. Allocates nothing.
+    /// (V sin dpsi): on each side the margin ramps in over `ramp.length_m`
+    /// from the car's own distance inside that edge (at most the margin) rather than from
+    /// 0, so successive plans never lead a car that keeps the margin closer to the edge
+    /// than the margin, while a car already inside it can still be planned for.
+    ///
+    /// A car moving toward an edge cannot stop at once: that side's ramp starts from where
+    /// its sideways motion can end, `e_dot^2 / (2 a)` further out (a =
+    /// `ramp.arrest_accel`), so the start is plannable instead of locally infeasible. The
+    /// allowance never takes the ramp's start closer to the edge than `ramp.floor_m` (or
+    /// the car's own distance, when smaller): a plan cutting toward an apex would otherwise
+    /// be allowed a little closer on every replan. Allocates nothing.
     pub fn window_from(
         &self,
         s0: f64,
         (e0, e_dot): (f64, f64),
         ds: f64,
-        (margin, ramp, a_lat): (f64, f64, f64),
+        ramp: &StartRamp,
         out: &mut RoadWindow,
     ) {
         let (lo0, hi0) = self.edges(s0);
-        let drift = |v: f64| {
-            if a_lat > 0.0 {
-                v.max(0.0).powi(2) / (2.0 * a_lat)
+        let margin = ramp.margin;
+        let start = |inside: f64, toward: f64| {
+            let drift = if ramp.arrest_accel > 0.0 {
+                toward.max(0.0).powi(2) / (2.0 * ramp.arrest_accel)
             } else {
                 0.0
-            }
+            };
+            (inside - drift)
+                .max(inside.min(ramp.floor_m))
+                .clamp(0.0, margin)
         };
-        let right0 = (e0 - drift(-e_dot) - lo0).clamp(0.0, margin);
-        let left0 = (hi0 - e0 - drift(e_dot)).clamp(0.0, margin);
+        let right0 = start(e0 - lo0, -e_dot);
+        let left0 = start(hi0 - e0, e_dot);
+        let length = ramp.length_m;
         self.window_with(s0, ds, out, |s| {
-            let w = if ramp > 0.0 { (s / ramp).min(1.0) } else { 1.0 };
+            let w = if length > 0.0 {
+                (s / length).min(1.0)
+            } else {
+                1.0
+            };
             (right0 + (margin - right0) * w, left0 + (margin - left0) * w)
         });
     }
+}
+
+/// How a plan's lane margin ramps in from a car near an edge ([`ClosedRoad::window_from`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartRamp {
+    /// The lane margin after the ramp \[m\].
+    pub margin: f64,
+    /// Distance over which the margin ramps in \[m\] (0: the full margin at once).
+    pub length_m: f64,
+    /// Lateral acceleration a car is assumed to stop its sideways motion with \[m/s^2\]
+    /// (0: no drift allowance).
+    pub arrest_accel: f64,
+    /// Closest to an edge the drift allowance takes the ramp's start \[m\].
+    pub floor_m: f64,
 }
 
 /// The road at the N + 1 nodes of one planning horizon (fixed size, no heap).

@@ -9,7 +9,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use ipc::msg::{Trajectory, VehicleState, HORIZON_N, MSG_VERSION};
-use ipc::road::{RoadWindow, Scenario};
+use ipc::road::{RoadWindow, Scenario, StartRamp};
 use ipc::services::{publish_state, wait_events, Services};
 use planner::model::{ix, NX};
 
@@ -318,8 +318,18 @@ fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
     x0[ix::VWR] = 20.0;
     let sample = |k: usize, window: &mut RoadWindow| {
         let s = lap - 150.0 + k as f64 * 1.7;
-        sc.road
-            .window_from(s, (0.3, -1.5), ds, (0.5, 20.0, 4.0), window);
+        sc.road.window_from(
+            s,
+            (0.3, -1.5),
+            ds,
+            &StartRamp {
+                margin: 0.5,
+                length_m: 20.0,
+                arrest_accel: 4.0,
+                floor_m: 0.3,
+            },
+            window,
+        );
         sc.spec
             .initial_domain(&window.kappa, &window.e_min, &window.e_max)
             .check(&x0)

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use ipc::msg::HORIZON_N;
-use ipc::road::{ClosedRoad, RoadArgs, RoadWindow, Scenario};
+use ipc::road::{ClosedRoad, RoadArgs, RoadWindow, Scenario, StartRamp};
 use planner::track::Profile;
 
 fn root() -> PathBuf {
@@ -97,6 +97,16 @@ fn the_lane_margin_shrinks_the_varying_bounds_after_its_ramp() {
     assert_eq!(w.e_min[0], sc.road.edges(1000.0).0);
 }
 
+/// The oval's margin ramp over 20 m with no floor.
+fn start_ramp(margin: f64, arrest_accel: f64) -> StartRamp {
+    StartRamp {
+        margin,
+        length_m: 20.0,
+        arrest_accel,
+        floor_m: 0.0,
+    }
+}
+
 /// A car inside the margin and moving toward the edge gets a start ramp from where its
 /// sideways motion can end (e_dot^2 / (2 a_lat) further out, never past the edge); moving
 /// away, from where it is; in both cases the full margin after the ramp.
@@ -108,7 +118,7 @@ fn the_start_ramp_leaves_room_for_a_car_drifting_toward_the_edge() {
     let ramp = |e_dot: f64| {
         let mut w = RoadWindow::default();
         oval.road
-            .window_from(0.0, (e0, e_dot), 2.5, (0.5, 20.0, 4.0), &mut w);
+            .window_from(0.0, (e0, e_dot), 2.5, &start_ramp(0.5, 4.0), &mut w);
         w
     };
     let still = ramp(0.0);
@@ -129,6 +139,31 @@ fn the_start_ramp_leaves_room_for_a_car_drifting_toward_the_edge() {
         assert!((w.e_min[8] - (lo + 0.5)).abs() < 1e-12);
         assert!(w.e_min.iter().all(|&b| b >= lo));
     }
+}
+
+/// The drift allowance stops at the floor: a car 1.2 m inside the edge crossing toward it
+/// at 5 m/s (3.1 m of drift at 4 m/s^2) gets a ramp from 0.3 m, not from the edge; a car
+/// already closer than the floor keeps its own distance; a slow drift is granted in full.
+#[test]
+fn the_drift_allowance_never_takes_the_ramp_closer_to_the_edge_than_its_floor() {
+    let oval = load(&RoadArgs::default()).unwrap();
+    let (lo, _) = oval.road.edges(0.0);
+    let ramp = |inside: f64, e_dot: f64, floor_m: f64| {
+        let mut w = RoadWindow::default();
+        let spec = StartRamp {
+            floor_m,
+            ..start_ramp(1.0, 4.0)
+        };
+        oval.road
+            .window_from(0.0, (lo + inside, e_dot), 2.5, &spec, &mut w);
+        w.e_min[0] - lo
+    };
+    assert!(ramp(1.2, -5.0, 0.0).abs() < 1e-12);
+    assert!((ramp(1.2, -5.0, 0.3) - 0.3).abs() < 1e-12);
+    assert!((ramp(0.2, -5.0, 0.3) - 0.2).abs() < 1e-12);
+    // 1 m/s: 0.125 m of drift, above the floor either way.
+    assert!((ramp(0.6, -1.0, 0.3) - 0.475).abs() < 1e-12);
+    assert_eq!(ramp(0.6, -1.0, 0.3), ramp(0.6, -1.0, 0.0));
 }
 
 #[test]

@@ -81,6 +81,14 @@ pub struct ClosedLoopArgs {
     /// saturation bound `--relaxed-saturation` and this margin.
     #[arg(long, default_value_t = 0.6)]
     relaxed_margin_m: f64,
+    /// Distance over which a plan's lane margin ramps in from the car's own distance inside
+    /// an edge [m] (`planner_proc --margin-ramp-m`).
+    #[arg(long, default_value_t = 20.0)]
+    margin_ramp_m: f64,
+    /// Closest to an edge that ramp starts for a car moving toward the edge [m]
+    /// (`planner_proc --margin-floor-m`).
+    #[arg(long, default_value_t = 0.3)]
+    margin_floor_m: f64,
     /// Tire saturation bound of a relaxed plan (`planner_proc --relaxed-saturation`).
     #[arg(long, default_value_t = 0.05)]
     relaxed_saturation: f64,
@@ -223,6 +231,10 @@ fn spawn_pair(
         .arg(args.friction_scale.to_string())
         .arg("--relaxed-margin-m")
         .arg(args.relaxed_margin_m.to_string())
+        .arg("--margin-ramp-m")
+        .arg(args.margin_ramp_m.to_string())
+        .arg("--margin-floor-m")
+        .arg(args.margin_floor_m.to_string())
         .arg("--relaxed-cycles")
         .arg(args.relaxed_cycles.to_string())
         .arg("--relaxed-saturation")

@@ -38,6 +38,9 @@ pub struct PlanRow {
     pub ds: f64,
     /// Status code ([`crate::msg::status_code`]).
     pub status: u32,
+    /// Kind of plan sent (`planner::plan::choice::PlanKind::code`: converged, best
+    /// iterate, previous shifted).
+    pub kind: u32,
     /// Solve time \[s\].
     pub solve_time_s: f64,
     /// Node speeds [m/s].
@@ -132,6 +135,7 @@ impl RunLog {
                 s_origin: m.s_origin,
                 ds: m.ds,
                 status: m.status,
+                kind: m.kind,
                 solve_time_s: m.solve_time_s,
                 v,
                 e,
@@ -195,7 +199,7 @@ impl RunLog {
     }
 
     /// Writes `driven.csv` (t, s, e, V, beta, dpsi every 10 ms) and `plans.csv` (one row
-    /// per plan taken: car s, origin, grid, status, solve time, node speeds v0..v100, node
+    /// per plan taken: car s, origin, grid, status, kind sent, solve time, node speeds v0..v100, node
     /// lateral offsets e0..e100) into `dir`,
     /// each file whole or not at all.
     pub fn write(&self, dir: &Path) -> Result<(), String> {
@@ -210,7 +214,7 @@ impl RunLog {
         })
         .map_err(|e| e.to_string())?;
         planner::io::write_atomic(&dir.join("plans.csv"), |w| {
-            write!(w, "s_car_m,s_origin_m,ds_m,status,solve_time_s")?;
+            write!(w, "s_car_m,s_origin_m,ds_m,status,kind,solve_time_s")?;
             for k in 0..=HORIZON_N {
                 write!(w, ",v{k}")?;
             }
@@ -221,8 +225,8 @@ impl RunLog {
             for p in &self.plans {
                 write!(
                     w,
-                    "{},{},{},{},{}",
-                    p.s_car, p.s_origin, p.ds, p.status, p.solve_time_s
+                    "{},{},{},{},{},{}",
+                    p.s_car, p.s_origin, p.ds, p.status, p.kind, p.solve_time_s
                 )?;
                 for v in p.v.iter().chain(&p.e) {
                     write!(w, ",{v}")?;

@@ -40,15 +40,16 @@ pub fn read(dir: &Path) -> Result<(Driven, Vec<PlanLine>), String> {
         .lines()
         .skip(1)
         .filter_map(numbers)
-        .filter(|v| v.len() > 5)
+        .filter(|v| v.len() > 6)
         .map(|v| PlanLine {
             s_car: v[0],
             s_origin: v[1],
             ds: v[2],
             status: v[3] as u32,
-            solve_time_s: v[4],
+            // v[4]: the kind sent.
+            solve_time_s: v[5],
             // v0..vN, then e0..eN.
-            v: v[5..5 + (v.len() - 5) / 2].to_vec(),
+            v: v[6..6 + (v.len() - 6) / 2].to_vec(),
         })
         .collect();
     Ok((Driven { rows }, plans))

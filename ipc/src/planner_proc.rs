@@ -305,9 +305,8 @@ struct PlannerLoop {
     ds: f64,
     v_min: f64,
     v_max: f64,
-    margin: f64,
-    /// The margin's ramp: its length and its floor \[m\] (`StartRamp`).
-    ramp: (f64, f64),
+    /// The lane margin's start ramp of a nominal plan (a relaxed plan changes its margin).
+    ramp: StartRamp,
     warm_start: bool,
     /// Guess of a cold solve.
     cold_guess: GuessKind,
@@ -452,8 +451,12 @@ impl PlannerLoop {
             ds,
             v_min,
             v_max,
-            margin: args.lane_margin_m,
-            ramp: (args.margin_ramp_m, args.margin_floor_m),
+            ramp: StartRamp {
+                margin: args.lane_margin_m,
+                length_m: args.margin_ramp_m,
+                arrest_accel: ARREST_LATERAL_ACCEL_MPS2,
+                floor_m: args.margin_floor_m,
+            },
             warm_start: args.warm_start == "on",
             cold_guess,
             recorder,
@@ -553,13 +556,11 @@ impl PlannerLoop {
         let e_dot = state.x[ix::V] * state.x[ix::DPSI].sin();
         let margin = match &cy.relaxed {
             Some(r) if cy.relaxed_now => r.margin,
-            _ => self.margin,
+            _ => self.ramp.margin,
         };
         let ramp = StartRamp {
             margin,
-            length_m: self.ramp.0,
-            arrest_accel: ARREST_LATERAL_ACCEL_MPS2,
-            floor_m: self.ramp.1,
+            ..self.ramp
         };
         self.sc.road.window_from(
             state.x[ix::S],
@@ -694,7 +695,7 @@ impl PlannerLoop {
     /// ([`budget::measure`]).
     fn log_worst_case(&self, args: &PlannerArgs) {
         let settings = *self.cy.planner.solver().settings();
-        match budget::measure(&self.sc, settings, self.margin, 15.0) {
+        match budget::measure(&self.sc, settings, self.ramp.margin, 15.0) {
             Ok(o) => elog!(
                 "planner: worst-case cycle {:.1} ms = budget {:.1} ms + overshoot {:.2} ms (one factorization {:.2} ms with its solves {:.2} ms and two evaluations of {:.2} ms, measured on the first window), period {:.1} ms; first plan budget {:.0} ms",
                 self.budget_ms + o.total_ms(),

@@ -82,13 +82,13 @@ pub struct ClosedLoopArgs {
     #[arg(long, default_value_t = 0.6)]
     relaxed_margin_m: f64,
     /// Distance over which a plan's lane margin ramps in from the car's own distance inside
-    /// an edge [m] (`planner_proc --margin-ramp-m`).
-    #[arg(long, default_value_t = 20.0)]
-    margin_ramp_m: f64,
+    /// an edge [m] (`planner_proc --margin-ramp-m`; default 20).
+    #[arg(long)]
+    margin_ramp_m: Option<f64>,
     /// Closest to an edge that ramp starts for a car moving toward the edge [m]
-    /// (`planner_proc --margin-floor-m`).
-    #[arg(long, default_value_t = 0.3)]
-    margin_floor_m: f64,
+    /// (`planner_proc --margin-floor-m`; default 0.3).
+    #[arg(long)]
+    margin_floor_m: Option<f64>,
     /// Tire saturation bound of a relaxed plan (`planner_proc --relaxed-saturation`).
     #[arg(long, default_value_t = 0.05)]
     relaxed_saturation: f64,
@@ -223,6 +223,12 @@ fn spawn_pair(
     if let Some(ms) = args.budget_ms {
         pc.arg("--budget-ms").arg(ms.to_string());
     }
+    if let Some(m) = args.margin_ramp_m {
+        pc.arg("--margin-ramp-m").arg(m.to_string());
+    }
+    if let Some(m) = args.margin_floor_m {
+        pc.arg("--margin-floor-m").arg(m.to_string());
+    }
     pc.arg("--warm-start")
         .arg(&args.warm_start)
         .arg("--cold-guess")
@@ -231,10 +237,6 @@ fn spawn_pair(
         .arg(args.friction_scale.to_string())
         .arg("--relaxed-margin-m")
         .arg(args.relaxed_margin_m.to_string())
-        .arg("--margin-ramp-m")
-        .arg(args.margin_ramp_m.to_string())
-        .arg("--margin-floor-m")
-        .arg(args.margin_floor_m.to_string())
         .arg("--relaxed-cycles")
         .arg(args.relaxed_cycles.to_string())
         .arg("--relaxed-saturation")

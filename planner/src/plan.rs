@@ -11,6 +11,7 @@ use crate::ocp::transcription::{ImplicitEulerNlp, TranscriptionError};
 use crate::ocp::{InitialState, OcpSpec};
 use crate::trajectory::Trajectory;
 
+mod diagnose;
 mod warm;
 pub use warm::{interp, shift_plan, PlanSlices, WarmDuals, WarmOptions, WarmReplan};
 

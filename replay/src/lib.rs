@@ -12,6 +12,7 @@
 pub mod budget;
 pub mod info;
 pub mod oval;
+pub mod plan_log;
 pub mod plot;
 pub mod run;
 pub mod stats;

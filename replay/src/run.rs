@@ -4,6 +4,7 @@
 use std::collections::HashMap;
 use std::time::Instant;
 
+use crate::plan_log::{self, PlanLog};
 use plan_record::{first_difference, PlanOutput, PlanWarmStart, Recording};
 use planner::guess::GuessKind;
 use planner::plan::choice::PlanKind;
@@ -32,6 +33,8 @@ pub struct RunOptions {
     /// Initial guess of every solve (None: the recorded one). A solve from another guess
     /// is compared with nothing.
     pub guess: Option<GuessKind>,
+    /// The input whose solve is logged iteration by iteration ([`RunReport::plan_log`]).
+    pub log_plan: Option<u64>,
 }
 
 impl Default for RunOptions {
@@ -41,6 +44,7 @@ impl Default for RunOptions {
             budgets: Budgets::default(),
             core: None,
             guess: None,
+            log_plan: None,
         }
     }
 }
@@ -99,6 +103,9 @@ pub enum ReplayError {
         /// Input seq.
         seq: u64,
     },
+    /// `--log-plan` names no recorded input.
+    #[error("--log-plan {0}: the recording holds no planner input with that seq")]
+    NoSuchPlan(u64),
     /// The iteration budget is out of range.
     #[error("--max-iter must lie in 1..=100000, got {0}")]
     MaxIter(usize),
@@ -211,6 +218,8 @@ pub struct RunReport {
     pub per_plan: Vec<PlanResult>,
     /// What was recovered of a file that was not closed cleanly (None: closed cleanly).
     pub recovered: Option<Recovered>,
+    /// The logged solve (`RunOptions::log_plan`).
+    pub plan_log: Option<PlanLog>,
 }
 
 /// Replays every input of a recording on a pinned solver thread.
@@ -230,6 +239,12 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
     }
     if rec.inputs.is_empty() {
         return Err(ReplayError::NoInputs);
+    }
+    if let Some(seq) = opts
+        .log_plan
+        .filter(|seq| !rec.inputs.iter().any(|i| i.seq == *seq))
+    {
+        return Err(ReplayError::NoSuchPlan(seq));
     }
     let cores = core_affinity::get_core_ids().unwrap_or_default();
     let core = match opts.core {
@@ -255,8 +270,9 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
         .join()
         .map_err(|_| ReplayError::Thread("solver thread panicked".into()))
     })??;
-    let (pinned_core, per_plan) = per_plan;
+    let (pinned_core, (per_plan, plan_log)) = per_plan;
     let mut report = report(per_plan, pinned_core, opts.budget_ms)?;
+    report.plan_log = plan_log;
     report.budget_applied = opts.budgets.budget_ms.is_some();
     report.max_iter = opts.budgets.max_iter;
     report.sent_kinds = opts.budgets.any().then(|| {
@@ -276,8 +292,9 @@ fn replay_all(
     rec: &Recording,
     outputs: &HashMap<u64, &PlanOutput>,
     opts: RunOptions,
-) -> Result<Vec<PlanResult>, ReplayError> {
+) -> Result<(Vec<PlanResult>, Option<PlanLog>), ReplayError> {
     let mut results = Vec::with_capacity(rec.inputs.len());
+    let mut plan_log = None;
     // Progress is reported between solves, outside the timed section.
     planner::progress::begin(rec.inputs.len() as u64, "replay");
     let mut sent = SentPlans::default();
@@ -332,10 +349,20 @@ fn replay_all(
             hit_budget: hit_cap(&info, &settings),
             sent: sent.decide(&info, input.stamp_ns, planner.states()),
         });
+        if opts.log_plan == Some(input.seq) {
+            let from = match (start, rec.warm_start(input.seq)) {
+                (RecordedStart::Warm, Some(w)) => plan_log::Start::Warm(&w.states, &w.controls),
+                (RecordedStart::Guess(kind), _) => plan_log::Start::Cold(kind),
+                (RecordedStart::Warm, None) => {
+                    return Err(ReplayError::MissingWarmStart { seq: input.seq })
+                }
+            };
+            plan_log = Some(plan_log::capture(&mut planner, input.seq, from));
+        }
         planner::progress::advance(&format!("plan {}", input.seq));
     }
     planner::progress::end();
-    Ok(results)
+    Ok((results, plan_log))
 }
 
 /// Where a replayed solve starts: a guess, or a recorded warm start with its options and
@@ -457,6 +484,7 @@ fn report(
         phases,
         per_plan,
         recovered: None,
+        plan_log: None,
     })
 }
 

@@ -1,7 +1,8 @@
 //! Warm-started plans in a recording: each is recorded with where it started (guess `warm`
 //! and a `/planner/warm_start` message holding the shifted guess and multipliers) and
 //! replays bit-identically on its own, the fall-back to the cold start included; a warm
-//! input without its warm start is refused by seq before anything is solved.
+//! input without its warm start is refused by seq before anything is solved. A logged plan
+//! (`--log-plan`) shows one row per iteration and the rows its start and end violate most.
 
 mod common;
 
@@ -154,4 +155,51 @@ fn the_warm_started_oval_drive_records_every_warm_start_and_replays_bit_identica
     let its: Vec<u32> = r.per_plan.iter().map(|p| p.iterations).collect();
     assert!(its[1..].iter().all(|&i| i < its[0]), "{its:?}");
     let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_logged_plan_shows_its_iterations_and_the_rows_its_start_and_end_violate_most() {
+    let d = common::temp_dir("warm_log");
+    let rec = drive(&d.join("warm.mcap"));
+    for seq in [0, 2] {
+        let r = run(
+            &rec,
+            RunOptions {
+                log_plan: Some(seq),
+                ..RunOptions::default()
+            },
+        )
+        .unwrap();
+        let log = r.plan_log.as_ref().expect("logged");
+        assert_eq!(log.seq, seq);
+        assert_eq!(
+            log.iterations.len(),
+            r.per_plan[seq as usize].iterations as usize,
+            "one log row per iteration"
+        );
+        // Both starts (the equilibrium guess, the shifted plan with its extended tail) lie
+        // off the dynamics; the converged plans only within the solver's tolerance.
+        let start = log
+            .worst_at_start
+            .first()
+            .expect("violated rows at the start");
+        assert!(start.violation > 1e-3, "{start:?}");
+        assert!(
+            log.worst_at_end.iter().all(|w| w.violation < 1e-5),
+            "{:?}",
+            log.worst_at_end
+        );
+        let shown = format!("{log}");
+        assert!(shown.contains(&start.row), "{shown}");
+    }
+    match run(
+        &rec,
+        RunOptions {
+            log_plan: Some(99),
+            ..RunOptions::default()
+        },
+    ) {
+        Err(ReplayError::NoSuchPlan(99)) => {}
+        other => panic!("expected --log-plan 99 to be refused, got {other:?}"),
+    }
 }

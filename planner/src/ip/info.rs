@@ -105,6 +105,31 @@ pub struct IterLog {
     pub step: StepKind,
 }
 
+impl IterLog {
+    /// Column heads of [`Self::row`]: the error columns are the scaled ones the
+    /// termination test uses; nf counts factorizations, bt backtracks.
+    pub const HEADER: &'static str = "iter  objective      inf_pr    theta     inf_du    compl     mu        alpha     delta_w  nf bt step";
+
+    /// This iteration as one line of a fixed-width table under [`Self::HEADER`].
+    pub fn row(&self) -> String {
+        format!(
+            "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
+            self.iter,
+            self.objective,
+            self.inf_pr,
+            self.theta,
+            self.inf_du,
+            self.compl,
+            self.mu,
+            self.alpha,
+            self.delta_w,
+            self.factorizations,
+            self.backtracks,
+            self.step.name()
+        )
+    }
+}
+
 /// Wall-clock time per phase of the solve, in seconds.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct PhaseTimes {

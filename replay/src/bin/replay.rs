@@ -56,6 +56,10 @@ enum Command {
         /// Write a latency figure (PNG).
         #[arg(long, value_name = "OUT.png")]
         plot: Option<PathBuf>,
+        /// Log the solve of input SEQ: its iterations and the constraint rows violated
+        /// most at its start and end (after the summary; `plan_log` in the JSON).
+        #[arg(long, value_name = "SEQ")]
+        log_plan: Option<u64>,
     },
     /// Summarise a recording: channels, counts, duration, drops.
     Info {
@@ -163,6 +167,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             json,
             per_plan,
             plot,
+            log_plan,
         } => {
             let rec = read(&file)?;
             let opts = RunOptions {
@@ -173,6 +178,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 },
                 core,
                 guess: guess.as_deref().and_then(GuessKind::parse),
+                log_plan,
             };
             let report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
             if let Some(png) = &plot {
@@ -182,6 +188,9 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 return run_json(report, &rec, &file, plot.as_deref(), per_plan);
             }
             out!("{report}");
+            if let Some(log) = &report.plan_log {
+                out!("{log}");
+            }
             if let Some(d) = rec.dropped().filter(|d| *d > 0) {
                 outln!("recorder dropped {d} records while recording");
             }

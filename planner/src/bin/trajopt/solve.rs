@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use plan_record::{now_ns, PlanInput, Record, Recorder};
 use planner::config::{load_scenario_layout, load_solver, load_vehicle, Layout};
 use planner::guess::GuessKind;
-use planner::ip::{Nlp, Settings, SolveInfo};
+use planner::ip::{Settings, SolveInfo};
 use planner::ocp::OcpSpec;
 use planner::plan::Planner;
 use planner::stats::median;
@@ -136,7 +136,8 @@ pub fn run(args: SolveArgs) -> Result<(), String> {
     let mut traj = planner.trajectory();
     layout.clone().apply(&mut traj);
     let name = planner.spec().name.clone();
-    let worst = worst_rows(&mut planner, 5);
+    let x = planner.solver().x().to_vec();
+    let worst = planner.worst_rows(&x, 5);
     let files = if args.no_output {
         Vec::new()
     } else {
@@ -290,47 +291,10 @@ fn finish_recording(
 
 /// Prints the solver's iteration log of the last solve to stderr.
 fn print_log(planner: &Planner<HORIZON>) {
-    errln!(
-        "iter  objective      inf_pr    theta     inf_du    compl     mu        alpha     delta_w  nf bt step"
-    );
+    errln!("{}", planner::ip::IterLog::HEADER);
     for l in planner.solver().log() {
-        errln!(
-            "{:4} {:13.6e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:9.2e} {:8.1e} {:2} {:2} {}",
-            l.iter,
-            l.objective,
-            l.inf_pr,
-            l.theta,
-            l.inf_du,
-            l.compl,
-            l.mu,
-            l.alpha,
-            l.delta_w,
-            l.factorizations,
-            l.backtracks,
-            l.step.name()
-        );
+        errln!("{}", l.row());
     }
-}
-
-/// The `count` constraint rows with the largest violation at the returned point, named
-/// (e.g. `defect[V]@0`): where an infeasible problem concentrates its violation.
-fn worst_rows(planner: &mut Planner<HORIZON>, count: usize) -> Vec<(String, f64)> {
-    let x = planner.solver().x().to_vec();
-    let nlp = planner.nlp();
-    let d = nlp.dims();
-    let (mut xl, mut xu) = (vec![0.0; d.n], vec![0.0; d.n]);
-    let (mut gl, mut gu, mut g) = (vec![0.0; d.m], vec![0.0; d.m], vec![0.0; d.m]);
-    nlp.bounds(&mut xl, &mut xu, &mut gl, &mut gu);
-    nlp.eval_g(&x, &mut g);
-    let mut rows: Vec<(usize, f64)> = (0..d.m)
-        .map(|i| (i, (gl[i] - g[i]).max(g[i] - gu[i]).max(0.0)))
-        .filter(|(_, v)| *v > 0.0)
-        .collect();
-    rows.sort_by(|a, b| b.1.total_cmp(&a.1));
-    rows.truncate(count);
-    rows.into_iter()
-        .map(|(i, v)| (nlp.row_name(i), v))
-        .collect()
 }
 
 /// Writes `<name>.csv`, `<name>.png` and `<name>_footprint.png` to `out_dir`, each

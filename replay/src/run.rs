@@ -315,6 +315,8 @@ fn replay_all(
             })?;
         // The recorded warm start is looked up before the timed solve.
         let prepared = prepare(rec, input.seq, start)?;
+        // Where the logged plan starts, taken before the solve consumes its start.
+        let log_from = (opts.log_plan == Some(input.seq)).then(|| prepared.log_start());
         let t0 = Instant::now();
         let info = solve(&mut planner, input.seq, prepared)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -349,14 +351,7 @@ fn replay_all(
             hit_budget: hit_cap(&info, &settings),
             sent: sent.decide(&info, input.stamp_ns, planner.states()),
         });
-        if opts.log_plan == Some(input.seq) {
-            let from = match (start, rec.warm_start(input.seq)) {
-                (RecordedStart::Warm, Some(w)) => plan_log::Start::Warm(&w.states, &w.controls),
-                (RecordedStart::Guess(kind), _) => plan_log::Start::Cold(kind),
-                (RecordedStart::Warm, None) => {
-                    return Err(ReplayError::MissingWarmStart { seq: input.seq })
-                }
-            };
+        if let Some(from) = log_from {
             plan_log = Some(plan_log::capture(&mut planner, input.seq, from));
         }
         planner::progress::advance(&format!("plan {}", input.seq));
@@ -370,6 +365,16 @@ fn replay_all(
 enum Prepared<'a> {
     Guess(GuessKind),
     Warm(&'a PlanWarmStart, WarmOptions, WarmDuals<'a>),
+}
+
+impl<'a> Prepared<'a> {
+    /// The start as the plan log reads it: the warm start's primal guess, or the guess.
+    fn log_start(&self) -> plan_log::Start<'a> {
+        match self {
+            Prepared::Guess(kind) => plan_log::Start::Cold(*kind),
+            Prepared::Warm(w, ..) => plan_log::Start::Warm(&w.states, &w.controls),
+        }
+    }
 }
 
 /// The start of input `seq`: `start` itself, or its warm start found in the recording.

@@ -40,6 +40,7 @@ mod record;
 mod relaxed;
 mod report;
 mod send;
+mod soft_lane;
 pub use intake::{LastPlanned, Rejected};
 pub use record::{CycleRecorder, WarmRecord};
 
@@ -108,9 +109,21 @@ pub struct PlannerArgs {
     pub margin_ramp_m: f64,
     /// Closest to an edge a plan's margin ramp starts for a car moving toward that edge
     /// [m] (or the car's own distance, when smaller): the room its sideways motion needs
-    /// to stop is granted down to this floor, not to the edge.
-    #[arg(long, default_value_t = MARGIN_FLOOR_M)]
+    /// to stop is granted down to this floor, not to the edge (negative: past the edge, for
+    /// plans with a soft lane, --soft-lane-m, that pulls them back).
+    #[arg(long, default_value_t = MARGIN_FLOOR_M, allow_hyphen_values = true)]
     pub margin_floor_m: f64,
+    /// Soft lane margin from each edge of a closed road [m] (0: none): a plan that comes
+    /// closer by d pays about --soft-lane-weight x d^2 seconds instead of being refused,
+    /// so a car a tracking error put there is planned back out rather than made
+    /// infeasible; --lane-margin-m stays the hard bound (`planner::ocp::soft_lane`,
+    /// docs/closed-loop.md).
+    #[arg(long, default_value_t = 0.0)]
+    pub soft_lane_m: f64,
+    /// Weight of the soft lane's penalty [s/m^2] (at 10 the oval's plan keeps within 2 cm
+    /// of its soft lane).
+    #[arg(long, default_value_t = 10.0)]
+    pub soft_lane_weight: f64,
     /// Tire saturation bound of a relaxed plan (sigma - sigma_sl <= this; at least the
     /// vehicle file's eps_sat).
     #[arg(long, default_value_t = 0.05)]
@@ -307,6 +320,9 @@ struct PlannerLoop {
     v_max: f64,
     /// The lane margin's start ramp of a nominal plan (a relaxed plan changes its margin).
     ramp: StartRamp,
+    /// Soft lane margin from each edge \[m\] (`--soft-lane-m`; used when the spec's soft
+    /// lane is on).
+    soft_margin: f64,
     warm_start: bool,
     /// Guess of a cold solve.
     cold_guess: GuessKind,
@@ -358,9 +374,9 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
             args.margin_ramp_m
         )));
     }
-    if !(args.margin_floor_m >= 0.0 && args.margin_floor_m <= 10.0) {
+    if !(args.margin_floor_m >= -2.0 && args.margin_floor_m <= 10.0) {
         return Err(PlannerProcError::Setup(format!(
-            "--margin-floor-m {}: must be in [0, 10]",
+            "--margin-floor-m {}: must be in [-2, 10]",
             args.margin_floor_m
         )));
     }
@@ -389,6 +405,9 @@ impl PlannerLoop {
         let mut sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         sc.spec.vehicle.scale_grip(args.friction_scale);
+        if args.soft_lane_m > 0.0 {
+            soft_lane::setup(&mut sc, args)?;
+        }
         sc.road.check_margin(args.lane_margin_m).map_err(|e| {
             PlannerProcError::Setup(format!(
                 "--lane-margin-m on {}: {e}",
@@ -457,6 +476,7 @@ impl PlannerLoop {
                 arrest_accel: ARREST_LATERAL_ACCEL_MPS2,
                 floor_m: args.margin_floor_m,
             },
+            soft_margin: args.soft_lane_m,
             warm_start: args.warm_start == "on",
             cold_guess,
             recorder,
@@ -569,6 +589,7 @@ impl PlannerLoop {
             &ramp,
             &mut cy.road,
         );
+        soft_lane::update(cy, &self.sc, state, (self.ds, self.soft_margin));
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds
         // the OCP enforces so a slightly-out state stays plannable.
         let mut x0 = state.x;

@@ -259,6 +259,7 @@ impl ClosedRoad {
             kappa,
             e_min,
             e_max,
+            ..
         } = out;
         for k in 0..=HORIZON_N {
             let s_road = s0 + k as f64 * ds;
@@ -306,7 +307,7 @@ impl ClosedRoad {
             };
             (inside - drift)
                 .max(inside.min(ramp.floor_m))
-                .clamp(0.0, margin)
+                .clamp(ramp.floor_m.min(0.0), margin)
         };
         let right0 = start(e0 - lo0, -e_dot);
         let left0 = start(hi0 - e0, e_dot);
@@ -322,6 +323,21 @@ impl ClosedRoad {
     }
 }
 
+impl ClosedRoad {
+    /// The soft lane of the window at road s0 ([`planner::ocp::SoftLane`]): the lane edges
+    /// at the N + 1 nodes s0 + k ds shrunk by `margin` on both sides, with no ramp (the
+    /// penalty, unlike a hard bound, leaves every start plannable). Obstacles are not
+    /// included: their bounds stay hard. Allocates nothing.
+    pub fn soft_window(&self, s0: f64, ds: f64, margin: f64, out: &mut RoadWindow) {
+        for k in 0..=HORIZON_N {
+            let (lo, hi) = self.edges(s0 + k as f64 * ds);
+            out.soft_e_min[k] = lo + margin;
+            out.soft_e_max[k] = hi - margin;
+        }
+        out.soft_on = true;
+    }
+}
+
 /// How a plan's lane margin ramps in from a car near an edge ([`ClosedRoad::window_from`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StartRamp {
@@ -332,7 +348,8 @@ pub struct StartRamp {
     /// Lateral acceleration a car is assumed to stop its sideways motion with \[m/s^2\]
     /// (0: no drift allowance).
     pub arrest_accel: f64,
-    /// Closest to an edge the drift allowance takes the ramp's start \[m\].
+    /// Closest to an edge the drift allowance takes the ramp's start \[m\] (negative: past
+    /// the edge, for a plan whose soft lane pulls it back).
     pub floor_m: f64,
 }
 
@@ -345,6 +362,12 @@ pub struct RoadWindow {
     pub e_min: [f64; HORIZON_N + 1],
     /// Left bound at the nodes \[m\].
     pub e_max: [f64; HORIZON_N + 1],
+    /// Soft right bound at the nodes \[m\] ([`ClosedRoad::soft_window`]; when `soft_on`).
+    pub soft_e_min: [f64; HORIZON_N + 1],
+    /// Soft left bound at the nodes \[m\] (when `soft_on`).
+    pub soft_e_max: [f64; HORIZON_N + 1],
+    /// Whether the soft bounds are set.
+    pub soft_on: bool,
 }
 
 impl Default for RoadWindow {
@@ -353,7 +376,23 @@ impl Default for RoadWindow {
             kappa: [0.0; HORIZON_N + 1],
             e_min: [0.0; HORIZON_N + 1],
             e_max: [0.0; HORIZON_N + 1],
+            soft_e_min: [0.0; HORIZON_N + 1],
+            soft_e_max: [0.0; HORIZON_N + 1],
+            soft_on: false,
         }
+    }
+}
+
+impl RoadWindow {
+    /// k_ref, e_min, e_max and the soft bounds (empty when not set), as a recording holds
+    /// them.
+    pub fn slices(&self) -> [&[f64]; 5] {
+        let soft: [&[f64]; 2] = if self.soft_on {
+            [&self.soft_e_min, &self.soft_e_max]
+        } else {
+            [&[], &[]]
+        };
+        [&self.kappa, &self.e_min, &self.e_max, soft[0], soft[1]]
     }
 }
 

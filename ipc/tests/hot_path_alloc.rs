@@ -293,8 +293,8 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
 }
 
 /// Sampling a track's road window (profile lookups, varying bounds, the margin ramp from
-/// the car's position, the wrap at the lap's end) and the domain check of the start state
-/// allocate nothing.
+/// the car's position, the wrap at the lap's end), its soft lane written into a planner,
+/// and the domain check of the start state allocate nothing.
 #[test]
 fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
     let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
@@ -312,11 +312,14 @@ fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
     .unwrap();
     let lap = sc.road.lap();
     let ds = sc.ds();
+    let mut spec = sc.spec.clone();
+    spec.soft_lane = planner::ocp::SoftLane::new(10.0, spec.e_min.clone(), spec.e_max.clone());
+    let mut planner = planner::plan::Planner::<HORIZON_N>::new(spec, sc.settings).unwrap();
     let mut window = RoadWindow::default();
     let mut x0 = [0.0; NX];
     x0[ix::V] = 20.0;
     x0[ix::VWR] = 20.0;
-    let sample = |k: usize, window: &mut RoadWindow| {
+    let mut sample = |k: usize, window: &mut RoadWindow| {
         let s = lap - 150.0 + k as f64 * 1.7;
         sc.road.window_from(
             s,
@@ -330,6 +333,10 @@ fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
             },
             window,
         );
+        sc.road.soft_window(s, ds, 0.7, window);
+        planner
+            .set_soft_lane(&window.soft_e_min, &window.soft_e_max)
+            .unwrap();
         sc.spec
             .initial_domain(&window.kappa, &window.e_min, &window.e_max)
             .check(&x0)

@@ -246,6 +246,20 @@ impl<const N: usize> Planner<N> {
             .map_err(|e| PlanError::Spec(e.into()))
     }
 
+    /// Sets the soft lane bounds of the following solves ([`crate::ocp::SoftLane`]; the
+    /// spec's soft lane must be on) in place, one per node. Allocates nothing; a refused
+    /// input (wrong length, not finite, soft lane off) leaves the planner as it was.
+    pub fn set_soft_lane(&mut self, e_min: &[f64], e_max: &[f64]) -> Result<(), PlanError> {
+        if let Some(k) = e_min.iter().chain(e_max).position(|v| !v.is_finite()) {
+            return Err(PlanError::Spec(crate::ocp::SpecError::Field {
+                field: "soft_lane".into(),
+                problem: format!("bound {k} is not finite"),
+            }));
+        }
+        self.nlp.update_soft_lane(e_min, e_max)?;
+        Ok(())
+    }
+
     /// Writes a new road window and the fixed initial state x0 into the transcription,
     /// after checking them; a refused input leaves the planner as it was.
     pub(crate) fn set_window(

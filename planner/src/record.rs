@@ -268,12 +268,15 @@ pub fn plan_input(
         v_min_mps: spec.v_min,
         v_max_mps: spec.v_max,
         steering_slew_weight: spec.steering_slew_weight,
+        soft_lane_weight: spec.soft_lane.weight,
         enforce_tire_saturation: spec.enforce_tire_saturation,
         initial_state_fixed: fixed,
         x0,
         kappa: spec.kappa.clone(),
         e_min: spec.e_min.clone(),
         e_max: spec.e_max.clone(),
+        soft_e_min: spec.soft_lane.e_min.clone(),
+        soft_e_max: spec.soft_lane.e_max.clone(),
         vehicle,
         settings: settings_arr,
         config_hash: config_hash(&vehicle, &settings_arr),
@@ -327,7 +330,8 @@ pub fn write_output(
 }
 
 /// Rewrites the fields of a recorded input that change from one replanning cycle to the
-/// next (seq, stamp, the road ahead, the initial state) in place, leaving the problem's
+/// next (seq, stamp, the road ahead: k_ref, e_min, e_max and the soft lane's bounds, empty
+/// without one; the initial state) in place, leaving the problem's
 /// constants (name, guess, horizon, bounds, vehicle, settings) as [`plan_input`] wrote
 /// them: allocates nothing when the road vectors have the capacity. The result equals
 /// [`plan_input`] of the spec with that road and initial state.
@@ -335,18 +339,22 @@ pub fn update_input(
     input: &mut PlanInput,
     seq: u64,
     stamp_ns: u64,
-    road: [&[f64]; 3],
+    road: [&[f64]; 5],
     initial: InitialState,
 ) {
-    let [kappa, e_min, e_max] = road;
     input.seq = seq;
     input.stamp_ns = stamp_ns;
-    input.kappa.clear();
-    input.kappa.extend_from_slice(kappa);
-    input.e_min.clear();
-    input.e_min.extend_from_slice(e_min);
-    input.e_max.clear();
-    input.e_max.extend_from_slice(e_max);
+    let fields = [
+        &mut input.kappa,
+        &mut input.e_min,
+        &mut input.e_max,
+        &mut input.soft_e_min,
+        &mut input.soft_e_max,
+    ];
+    for (field, values) in fields.into_iter().zip(road) {
+        field.clear();
+        field.extend_from_slice(values);
+    }
     (input.initial_state_fixed, input.x0) = match initial {
         InitialState::Fixed(x0) => (true, x0),
         InitialState::Free => (false, [0.0; NX]),
@@ -400,6 +408,11 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, RecordedSta
         v_max: input.v_max_mps,
         enforce_tire_saturation: input.enforce_tire_saturation,
         steering_slew_weight: input.steering_slew_weight,
+        soft_lane: crate::ocp::SoftLane::new(
+            input.soft_lane_weight,
+            input.soft_e_min.clone(),
+            input.soft_e_max.clone(),
+        ),
         initial: if input.initial_state_fixed {
             InitialState::Fixed(input.x0)
         } else {

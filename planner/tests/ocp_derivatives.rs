@@ -6,7 +6,7 @@ mod common;
 use common::{random_trajectory, Rng};
 use planner::ip::Nlp;
 use planner::ocp::fixtures::oval_spec;
-use planner::ocp::{ImplicitEulerNlp, InitialState};
+use planner::ocp::{ImplicitEulerNlp, InitialState, SoftLane};
 use std::collections::HashSet;
 
 const N: usize = 100;
@@ -36,9 +36,21 @@ fn problem(sat: bool, fixed: bool) -> Problem {
 
 /// As [`problem`], with the objective's steering-slew term at weight `w` [1/s].
 fn problem_w(sat: bool, fixed: bool, w: f64) -> Problem {
+    problem_ws(sat, fixed, w, SoftLane::OFF)
+}
+
+/// A soft lane +-0.8 m wide: the random trajectories' e (within +-2.6 m) lie past it at
+/// some nodes and inside it at others.
+fn band() -> SoftLane {
+    SoftLane::new(2.5, vec![-0.8; N + 1], vec![0.8; N + 1])
+}
+
+/// As [`problem_w`], with the soft lane band `soft`.
+fn problem_ws(sat: bool, fixed: bool, w: f64, soft: SoftLane) -> Problem {
     let mut spec = oval_spec();
     spec.enforce_tire_saturation = sat;
     spec.steering_slew_weight = w;
+    spec.soft_lane = soft;
     if fixed {
         spec.initial = InitialState::Fixed([0.1, 20.0, 0.01, 20.5, 300.0, 0.5, 0.02, 0.0, 0.0]);
     }
@@ -113,18 +125,27 @@ fn structures_are_valid() {
 
 #[test]
 fn objective_gradient_matches_fd() {
-    // Weight 0: t_N only; weight 1: the steering-slew term too (non-zero on every control).
-    for w in [0.0, 1.0] {
-        let mut p = problem_w(true, false, w);
+    // Weight 0: t_N only; weight 1: the steering-slew term too (non-zero on every control);
+    // the soft lane: non-zero on the e of the nodes past its bounds, and only there.
+    for (w, soft) in [(0.0, SoftLane::OFF), (1.0, SoftLane::OFF), (0.0, band())] {
+        let on = soft.is_on();
+        let mut p = problem_ws(true, false, w, soft);
         let z = random_z(&p, 7);
         let mut g = vec![0.0; p.n];
         p.nlp.eval_grad_f(&z, &mut g);
         let nonzero = g.iter().filter(|v| **v != 0.0).count();
         assert_eq!(
             nonzero > 1,
-            w > 0.0,
+            w > 0.0 || on,
             "weight {w}: {nonzero} non-zero entries"
         );
+        if on {
+            assert!(
+                (10..N).contains(&(nonzero - 1)),
+                "{} nodes inside the band",
+                nonzero - 1
+            );
+        }
         let mut zz = z.clone();
         for j in 0..p.n {
             let h = step(z[j]);
@@ -195,9 +216,14 @@ fn constraint_jacobian_matches_fd_fixed_initial_no_saturation() {
 
 #[test]
 fn lagrangian_hessian_matches_fd() {
-    // Seed 22 with the steering-slew term: its curvature scales with sigma (obj_factor).
-    for (seed, w) in [(21u64, 0.0), (22, 1.0)] {
-        let mut p = problem_w(true, false, w);
+    // Seed 22 with the steering-slew term: its curvature scales with sigma (obj_factor);
+    // seed 23 with the soft lane (curvature on the e of the nodes past its bounds).
+    for (seed, w, soft) in [
+        (21u64, 0.0, SoftLane::OFF),
+        (22, 1.0, SoftLane::OFF),
+        (23, 0.0, band()),
+    ] {
+        let mut p = problem_ws(true, false, w, soft);
         let z = random_z(&p, seed);
         let mut rng = Rng(seed * 7919);
         let lam: Vec<f64> = (0..p.m).map(|_| rng.range(-1.0, 1.0)).collect();

@@ -69,6 +69,36 @@ fn inputs_round_trip_bit_exactly_through_the_file() {
     assert!(e.contains("config_hash"), "{e}");
 }
 
+/// A soft lane (its weight and bounds) is part of the recorded input: it survives the
+/// CDR encoding bit for bit, rebuilds the same problem, and a bad bound is refused by name.
+#[test]
+fn a_soft_lane_round_trips_through_the_recording_and_is_checked() {
+    use plan_record::cdr::{decode_input, encode_input, Encoder};
+    let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
+    let (mut spec, settings, start) = problem_from(&rec.inputs[0]).unwrap();
+    let RecordedStart::Guess(guess) = start else {
+        panic!("the fixture has no warm starts");
+    };
+    let lo: Vec<f64> = spec.e_min.iter().map(|e| e + 0.7).collect();
+    let hi: Vec<f64> = spec.e_max.iter().map(|e| e - 0.7).collect();
+    spec.soft_lane = planner::ocp::SoftLane::new(10.0, lo, hi);
+    let input = plan_input(&spec, &settings, guess, 7, 8);
+    let mut e = Encoder::default();
+    encode_input(&mut e, &input);
+    let decoded = decode_input(e.bytes()).unwrap();
+    assert_eq!(decoded, input);
+    let (again, _, _) = problem_from(&decoded).unwrap();
+    assert_eq!(again.soft_lane, spec.soft_lane);
+    let mut bad = decoded.clone();
+    bad.soft_e_max[40] = f64::NAN;
+    let e = problem_from(&bad).unwrap_err().to_string();
+    assert!(e.contains("soft_lane") && e.contains("e_max[40]"), "{e}");
+    let mut short = decoded;
+    short.soft_e_min.pop();
+    let e = problem_from(&short).unwrap_err().to_string();
+    assert!(e.contains("soft_lane") && e.contains("e_min"), "{e}");
+}
+
 #[test]
 fn recorded_values_outside_their_domain_are_rejected_by_name_before_solving() {
     let rec = Recording::from_bytes(common::valid_bytes()).unwrap();

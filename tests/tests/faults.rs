@@ -353,11 +353,11 @@ fn bad_states_are_counted_and_never_planned_from() {
 }
 
 /// (d) Options that would hang a process or panic it (an endless wait, a plant step so
-/// small the substep count overflows, an infinite sleep) are refused before any IPC, with
-/// exit code 2 and the option named.
+/// small the substep count overflows, an infinite sleep), or that name a soft lane the
+/// road cannot have, are refused before any IPC, with exit code 2 and the option named.
 #[test]
 fn options_that_would_hang_or_panic_are_refused_by_name() {
-    let cases: [(&str, &[&str], &str); 8] = [
+    let cases: [(&str, &[&str], &str); 11] = [
         ("tracker_proc", &["--plant-dt-s", "1e-9"], "--plant-dt-s"),
         (
             "tracker_proc",
@@ -385,6 +385,24 @@ fn options_that_would_hang_or_panic_are_refused_by_name() {
             "planner_proc",
             &["--friction-scale", "NaN"],
             "--friction-scale",
+        ),
+        (
+            "planner_proc",
+            &["--soft-lane-m", "1", "--soft-lane-weight", "0"],
+            "--soft-lane-weight",
+        ),
+        ("planner_proc", &["--soft-lane-m", "inf"], "--soft-lane-m"),
+        (
+            "planner_proc",
+            &[
+                "--scenario",
+                "config/scenarios/collision_avoidance.toml",
+                "--segment",
+                "forgiving",
+                "--soft-lane-m",
+                "1",
+            ],
+            "--soft-lane-m",
         ),
     ];
     for (bin, args, option) in cases {

@@ -68,7 +68,14 @@ impl CycleRecorder {
         };
         let vehicles = [recorded(spec), recorded(relaxed.unwrap_or(spec))];
         let mut input = planner::record::plan_input(spec, settings, guess, 0, 0);
-        for v in [&mut input.kappa, &mut input.e_min, &mut input.e_max] {
+        let road = [
+            &mut input.kappa,
+            &mut input.e_min,
+            &mut input.e_max,
+            &mut input.soft_e_min,
+            &mut input.soft_e_max,
+        ];
+        for v in road {
             v.reserve(HORIZON_N + 1);
         }
         input.guess.reserve(WARM_GUESS.len());
@@ -103,7 +110,7 @@ impl CycleRecorder {
             &mut slot.input,
             seq,
             stamp_in,
-            [&road.kappa, &road.e_min, &road.e_max],
+            road.slices(),
             InitialState::Fixed(x0),
         );
         (slot.input.vehicle, slot.input.config_hash) = self.vehicles[usize::from(relaxed)];

@@ -238,6 +238,7 @@ fn load_track(
         v_max: TRACK_SPEEDS_MPS.1,
         enforce_tire_saturation: true,
         steering_slew_weight: TRACK_SLEW_WEIGHT,
+        soft_lane: planner::ocp::SoftLane::OFF,
         initial: InitialState::Free,
         vehicle,
     };

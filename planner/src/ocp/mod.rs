@@ -10,10 +10,12 @@ pub mod layout;
 pub mod objective;
 pub mod path_constraints;
 pub mod scaling;
+pub mod soft_lane;
 pub mod spec;
 pub mod transcription;
 
 pub use layout::Layout;
+pub use soft_lane::SoftLane;
 pub use spec::{InitialState, OcpSpec, SpecError, MAX_STEERING_SLEW_WEIGHT};
 pub use transcription::{
     CrankNicolson, DefectScheme, Derivatives, ExplicitRk2, ExplicitRk4, GaussLegendre2,

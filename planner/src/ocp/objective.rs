@@ -11,6 +11,7 @@
 
 use super::layout::Layout;
 use super::scaling::{OBJECTIVE_SCALE, U_NOMINAL, X_NOMINAL};
+use super::soft_lane::SoftLaneTerm;
 use crate::model::{iu, ix, VehicleParams};
 
 /// The objective with steering-slew weight `w` [1/s] in words, for tables and summaries.
@@ -32,18 +33,22 @@ pub struct Objective {
     /// Per interval k = 1..N-1: Hessian slots (u_k, u_k), (u_{k-1}, u_{k-1}), (u_k, u_{k-1})
     /// of the steering. Empty when the weight is 0.
     slots: Vec<[usize; 3]>,
+    /// The soft lane band's penalty ([`super::soft_lane`]), when on.
+    soft: Option<SoftLaneTerm>,
 }
 
 impl Objective {
-    /// The objective for weight `w` [1/s] on `layout` with N = `n` intervals; `slot(r, c)`
-    /// returns the Hessian slot of entry (r, c), r >= c, adding it to the pattern if new.
+    /// The objective for slew weight `w` [1/s] and soft-lane weight `soft` [s/m^2] on
+    /// `layout` with N = `n` intervals; `slot(r, c)` returns the Hessian slot of entry (r,
+    /// c), r >= c, adding it to the pattern if new.
     pub fn new(
         layout: Layout,
         n: usize,
-        w: f64,
+        (w, soft): (f64, f64),
         vehicle: &VehicleParams,
         mut slot: impl FnMut(usize, usize) -> usize,
     ) -> Self {
+        let soft = SoftLaneTerm::new(layout, n, soft, &mut slot);
         // Weight 0 leaves the problem exactly eq. 3 (and the pattern unchanged), whatever
         // the vehicle's rate bound (a spec that skipped `OcpSpec::check` may hold 0 or inf).
         if w == 0.0 {
@@ -52,6 +57,7 @@ impl Objective {
                 n,
                 slew: 0.0,
                 slots: Vec::new(),
+                soft,
             };
         }
         let c = U_NOMINAL[iu::DELTA] / vehicle.delta_rate_max;
@@ -66,6 +72,7 @@ impl Objective {
             n,
             slew: w * c * c / OBJECTIVE_SCALE,
             slots,
+            soft,
         }
     }
 
@@ -80,8 +87,9 @@ impl Objective {
         x[self.layout.u(k, iu::DELTA)] - x[self.layout.u(k - 1, iu::DELTA)]
     }
 
-    /// f(x) = t_N / OBJECTIVE_SCALE + slew term (scaled units).
-    pub fn value(&self, x: &[f64]) -> f64 {
+    /// f(x) = t_N / OBJECTIVE_SCALE + slew term + soft lane's penalty on the soft bounds
+    /// `e_min`, `e_max` \[m\] (scaled units).
+    pub fn value(&self, x: &[f64], (e_min, e_max): (&[f64], &[f64])) -> f64 {
         let mut f = x[self.layout.x(self.n, ix::T)] * X_NOMINAL[ix::T] / OBJECTIVE_SCALE;
         if self.has_slew() {
             for k in 1..self.n {
@@ -89,11 +97,14 @@ impl Objective {
                 f += self.slew * d * d;
             }
         }
+        if let Some(soft) = &self.soft {
+            f += soft.value(x, e_min, e_max);
+        }
         f
     }
 
     /// The gradient (overwrites `grad`).
-    pub fn gradient(&self, x: &[f64], grad: &mut [f64]) {
+    pub fn gradient(&self, x: &[f64], (e_min, e_max): (&[f64], &[f64]), grad: &mut [f64]) {
         grad.fill(0.0);
         grad[self.layout.x(self.n, ix::T)] = X_NOMINAL[ix::T] / OBJECTIVE_SCALE;
         if self.has_slew() {
@@ -103,15 +114,28 @@ impl Objective {
                 grad[self.layout.u(k - 1, iu::DELTA)] -= g;
             }
         }
+        if let Some(soft) = &self.soft {
+            soft.add_gradient(x, e_min, e_max, grad);
+        }
     }
 
-    /// Adds `obj_factor` times the (constant) Hessian of the slew term to `vals`.
-    pub fn add_hessian(&self, obj_factor: f64, vals: &mut [f64]) {
+    /// Adds `obj_factor` times the Hessian to `vals`: the slew term's (constant) and the
+    /// soft lane's (on the entries of the nodes past its bounds).
+    pub fn add_hessian(
+        &self,
+        x: &[f64],
+        (e_min, e_max): (&[f64], &[f64]),
+        obj_factor: f64,
+        vals: &mut [f64],
+    ) {
         let h = 2.0 * obj_factor * self.slew;
         for &[kk, pp, kp] in &self.slots {
             vals[kk] += h;
             vals[pp] += h;
             vals[kp] -= h;
+        }
+        if let Some(soft) = &self.soft {
+            soft.add_hessian(x, e_min, e_max, obj_factor, vals);
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The problem data of one OCP instance (paper eq. 3): road sampled at the nodes, bounds,
 //! options and the vehicle. Built from config + track; consumed by a transcription.
 
+use super::soft_lane::SoftLane;
 use crate::model::{ix, ParamError, VehicleParams, NX, STATE_NAMES};
 use crate::track::beyond_curvature_centre;
 
@@ -42,6 +43,9 @@ pub struct OcpSpec {
     /// pure minimum time (eq. 3), whose optimum weaves the steering at its rate limit
     /// wherever the front brake is torque-limited (scrub drag; README, Modelling choices).
     pub steering_slew_weight: f64,
+    /// Soft lane bounds inside `e_min`, `e_max` with the weight of leaving them in the
+    /// objective ([`SoftLane`]; [`SoftLane::OFF`]: the paper's objective).
+    pub soft_lane: SoftLane,
     /// Initial state treatment.
     pub initial: InitialState,
     /// Vehicle parameters.
@@ -113,6 +117,9 @@ impl OcpSpec {
                     self.steering_slew_weight
                 ),
             ));
+        }
+        if let Some(problem) = self.soft_lane.problem(n + 1) {
+            return Err(bad("soft_lane".into(), problem));
         }
         self.vehicle.check()?;
         if let InitialState::Fixed(x0) = &self.initial {
@@ -288,6 +295,7 @@ mod tests {
             v_max: 60.0,
             enforce_tire_saturation: true,
             steering_slew_weight: 0.0,
+            soft_lane: SoftLane::OFF,
             initial: InitialState::Free,
             vehicle: lc500(),
         }

@@ -248,12 +248,15 @@ pub fn encode_input(e: &mut Encoder, m: &PlanInput) {
     e.f64(m.v_min_mps);
     e.f64(m.v_max_mps);
     e.f64(m.steering_slew_weight);
+    e.f64(m.soft_lane_weight);
     e.bool(m.enforce_tire_saturation);
     e.bool(m.initial_state_fixed);
     e.f64_array(&m.x0);
     e.f64_seq(m.kappa.iter().copied());
     e.f64_seq(m.e_min.iter().copied());
     e.f64_seq(m.e_max.iter().copied());
+    e.f64_seq(m.soft_e_min.iter().copied());
+    e.f64_seq(m.soft_e_max.iter().copied());
     e.f64_array(&m.vehicle);
     e.f64_array(&m.settings);
     e.u64(m.config_hash);
@@ -273,12 +276,15 @@ pub fn decode_input(data: &[u8]) -> Result<PlanInput, DecodeError> {
         v_min_mps: d.f64("v_min_mps")?,
         v_max_mps: d.f64("v_max_mps")?,
         steering_slew_weight: d.f64("steering_slew_weight")?,
+        soft_lane_weight: d.f64("soft_lane_weight")?,
         enforce_tire_saturation: d.bool("enforce_tire_saturation")?,
         initial_state_fixed: d.bool("initial_state_fixed")?,
         x0: d.f64_array::<STATE_LEN>("x0")?,
         kappa: d.f64_seq("kappa")?,
         e_min: d.f64_seq("e_min")?,
         e_max: d.f64_seq("e_max")?,
+        soft_e_min: d.f64_seq("soft_e_min")?,
+        soft_e_max: d.f64_seq("soft_e_max")?,
         vehicle: d.f64_array::<VEHICLE_LEN>("vehicle")?,
         settings: d.f64_array::<SETTINGS_LEN>("settings")?,
         config_hash: d.u64("config_hash")?,

@@ -109,6 +109,8 @@ pub struct PlanInput {
     pub v_max_mps: f64,
     /// Weight of the objective's steering-slew term \[1/s\] (0: pure minimum time).
     pub steering_slew_weight: f64,
+    /// Weight of leaving the soft lane bounds \[s/m^2\] (0: no soft lane).
+    pub soft_lane_weight: f64,
     /// Tire saturation constraints on.
     pub enforce_tire_saturation: bool,
     /// True when `x0` is the fixed initial state (vehicle state); false: paper's free start.
@@ -121,6 +123,10 @@ pub struct PlanInput {
     pub e_min: Vec<f64>,
     /// Left lateral bound at every node \[m\].
     pub e_max: Vec<f64>,
+    /// Soft right bound at every node \[m\] (empty without a soft lane).
+    pub soft_e_min: Vec<f64>,
+    /// Soft left bound at every node \[m\] (empty without a soft lane).
+    pub soft_e_max: Vec<f64>,
     /// Vehicle parameters in [`VEHICLE_FIELDS`] order.
     pub vehicle: [f64; VEHICLE_LEN],
     /// Solver settings in [`SETTINGS_FIELDS`] order.
@@ -285,6 +291,8 @@ impl PlanRecord {
                 kappa: vec(&i.kappa, i.kappa.capacity()),
                 e_min: vec(&i.e_min, i.e_min.capacity()),
                 e_max: vec(&i.e_max, i.e_max.capacity()),
+                soft_e_min: vec(&i.soft_e_min, i.soft_e_min.capacity()),
+                soft_e_max: vec(&i.soft_e_max, i.soft_e_max.capacity()),
                 settings_json: string(&i.settings_json),
                 ..i.clone()
             },

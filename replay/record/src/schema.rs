@@ -33,6 +33,8 @@ float64 v_min_mps
 float64 v_max_mps
 # weight of the objective's steering-slew term [1/s] (0: pure minimum time)
 float64 steering_slew_weight
+# weight of leaving the soft lane bounds [s/m^2] (0: no soft lane)
+float64 soft_lane_weight
 bool enforce_tire_saturation
 bool initial_state_fixed
 # initial vehicle state [r, V, beta, V_wr, dFz, e, dpsi, s, t]
@@ -41,6 +43,9 @@ float64[9] x0
 float64[] kappa
 float64[] e_min
 float64[] e_max
+# soft lane bounds at the N+1 nodes (empty without a soft lane)
+float64[] soft_e_min
+float64[] soft_e_max
 # m l a b h_cg i_z g r_w i_w c_f c_r mu c_l delta_max t_comb_max t_comb_min t_bf_min t_bf_max
 # v_wr_min delta_rate_max t_comb_rate_max t_bf_rate_max eps_sigma eps_sat fmax_floor_frac
 float64[25] vehicle

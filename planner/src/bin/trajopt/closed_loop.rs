@@ -86,9 +86,17 @@ pub struct ClosedLoopArgs {
     #[arg(long)]
     margin_ramp_m: Option<f64>,
     /// Closest to an edge that ramp starts for a car moving toward the edge [m]
-    /// (`planner_proc --margin-floor-m`; default 0.3).
-    #[arg(long)]
+    /// (`planner_proc --margin-floor-m`; default 0.3; negative: past the edge).
+    #[arg(long, allow_hyphen_values = true)]
     margin_floor_m: Option<f64>,
+    /// Soft lane margin from each edge of a closed road [m] (`planner_proc
+    /// --soft-lane-m`; 0: none): a penalty in the objective, not a bound.
+    #[arg(long)]
+    soft_lane_m: Option<f64>,
+    /// Weight of the soft lane's penalty [s/m^2] (`planner_proc --soft-lane-weight`;
+    /// default 10).
+    #[arg(long)]
+    soft_lane_weight: Option<f64>,
     /// Tire saturation bound of a relaxed plan (`planner_proc --relaxed-saturation`).
     #[arg(long, default_value_t = 0.05)]
     relaxed_saturation: f64,
@@ -227,7 +235,14 @@ fn spawn_pair(
         pc.arg("--margin-ramp-m").arg(m.to_string());
     }
     if let Some(m) = args.margin_floor_m {
-        pc.arg("--margin-floor-m").arg(m.to_string());
+        // One token: a negative floor would otherwise read as an option.
+        pc.arg(format!("--margin-floor-m={m}"));
+    }
+    if let Some(m) = args.soft_lane_m {
+        pc.arg("--soft-lane-m").arg(m.to_string());
+    }
+    if let Some(w) = args.soft_lane_weight {
+        pc.arg("--soft-lane-weight").arg(w.to_string());
     }
     pc.arg("--warm-start")
         .arg(&args.warm_start)

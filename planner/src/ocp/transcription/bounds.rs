@@ -74,6 +74,24 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         Ok(())
     }
 
+    /// Replaces the soft lane bounds ([`crate::ocp::SoftLane`]) at the N + 1 nodes of a
+    /// spec whose soft lane is on (its weight fixed at construction). Allocation-free; on a
+    /// length mismatch, or with the soft lane off, nothing is changed.
+    pub fn update_soft_lane(
+        &mut self,
+        e_min: &[f64],
+        e_max: &[f64],
+    ) -> Result<(), TranscriptionError> {
+        check_node_vectors::<N, _>([("soft e_min", e_min.len()), ("soft e_max", e_max.len())])?;
+        let soft = &mut self.spec.soft_lane;
+        if !soft.is_on() {
+            return Err(TranscriptionError::SoftLaneOff);
+        }
+        soft.e_min.copy_from_slice(e_min);
+        soft.e_max.copy_from_slice(e_max);
+        Ok(())
+    }
+
     /// Copies the road into the spec after checking the lengths (nothing changes on a
     /// mismatch); the bounds are left to the caller.
     fn write_road(
@@ -82,7 +100,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         e_min: &[f64],
         e_max: &[f64],
     ) -> Result<(), TranscriptionError> {
-        check_node_vectors::<N>([
+        check_node_vectors::<N, _>([
             ("kappa", kappa.len()),
             ("e_min", e_min.len()),
             ("e_max", e_max.len()),

@@ -21,12 +21,15 @@ pub enum TranscriptionError {
         /// Actual length.
         got: usize,
     },
+    /// Soft lane bounds given to a transcription built without a soft lane.
+    #[error("the spec has no soft lane (weight 0): its bounds cannot be updated")]
+    SoftLaneOff,
 }
 
 /// Checks that every per-node vector (`(field, length)` pairs) has N + 1 entries; the first
 /// that does not is the error.
-pub(super) fn check_node_vectors<const N: usize>(
-    fields: [(&'static str, usize); 3],
+pub(super) fn check_node_vectors<const N: usize, const F: usize>(
+    fields: [(&'static str, usize); F],
 ) -> Result<(), TranscriptionError> {
     for (field, len) in fields {
         if len != N + 1 {

@@ -127,7 +127,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 got: spec.n_intervals,
             });
         }
-        check_node_vectors::<N>([
+        check_node_vectors::<N, _>([
             ("kappa", spec.kappa.len()),
             ("e_min", spec.e_min.len()),
             ("e_max", spec.e_max.len()),
@@ -153,11 +153,12 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             max_block,
         } = HessBlocks::build::<S, N>(&scheme, layout, sat, &mut hb);
 
-        // The objective's steering-slew entries (none at weight 0: the pattern is unchanged).
+        // The objective's steering-slew and lane-band entries (none when off: the pattern
+        // is unchanged).
         let objective = Objective::new(
             layout,
             N,
-            spec.steering_slew_weight,
+            (spec.steering_slew_weight, spec.soft_lane.weight),
             &spec.vehicle,
             |r, c| hb.slot(r, c),
         );

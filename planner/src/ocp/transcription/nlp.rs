@@ -42,11 +42,12 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
     /// Objective t_N / OBJECTIVE_SCALE (= 10 t_N), plus the steering-slew term
     /// ([`Objective`](crate::ocp::objective::Objective)).
     fn eval_f(&mut self, x: &[f64]) -> f64 {
-        self.objective.value(x)
+        self.objective.value(x, self.spec.soft_lane.bounds())
     }
 
     fn eval_grad_f(&mut self, x: &[f64], grad: &mut [f64]) {
-        self.objective.gradient(x, grad);
+        self.objective
+            .gradient(x, self.spec.soft_lane.bounds(), grad);
     }
 
     fn eval_g(&mut self, x: &[f64], g: &mut [f64]) {
@@ -101,8 +102,9 @@ impl<S: DefectScheme, const N: usize> Nlp for Transcription<S, N> {
     /// rows are linear) and the objective's constant steering-slew term.
     fn eval_hess(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
         self.eval_hess_for_cpu(x, lambda, vals);
-        // The objective's only curvature: the steering-slew term, constant.
-        self.objective.add_hessian(obj_factor, vals);
+        // The objective's curvature: the steering-slew term (constant) and the soft lane.
+        let soft = self.spec.soft_lane.bounds();
+        self.objective.add_hessian(x, soft, obj_factor, vals);
     }
 }
 

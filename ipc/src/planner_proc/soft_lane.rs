@@ -40,9 +40,14 @@ pub(super) fn setup(sc: &mut Scenario, args: &PlannerArgs) -> Result<(), Planner
 }
 
 /// Writes the soft lane of the window at the car's s into the cycle's road window and its
-/// planner, when the spec has one (`(ds, margin)`: node spacing and soft margin [m]).
+/// planner, when the spec has one (`(ds, margin)`: node spacing and soft margin \[m\]).
 /// Allocates nothing.
-pub(super) fn update(cy: &mut Cycle, sc: &Scenario, state: &VehicleState, (ds, margin): (f64, f64)) {
+pub(super) fn update(
+    cy: &mut Cycle,
+    sc: &Scenario,
+    state: &VehicleState,
+    (ds, margin): (f64, f64),
+) {
     if !cy.planner.spec().soft_lane.is_on() {
         return;
     }

@@ -90,7 +90,8 @@ pub struct ClosedLoopArgs {
     #[arg(long, allow_hyphen_values = true)]
     margin_floor_m: Option<f64>,
     /// Soft lane margin from each edge of a closed road [m] (`planner_proc
-    /// --soft-lane-m`; 0: none): a penalty in the objective, not a bound.
+    /// --soft-lane-m`; default 1.3 on a track, else 0: none): a penalty in the objective,
+    /// not a bound.
     #[arg(long)]
     soft_lane_m: Option<f64>,
     /// Weight of the soft lane's penalty [s/m^2] (`planner_proc --soft-lane-weight`;
@@ -112,7 +113,18 @@ pub struct ClosedLoopArgs {
     road: road::RoadOpts,
 }
 
+/// Soft lane margin of the plans on a track when not given [m] (docs/closed-loop.md).
+const TRACK_SOFT_LANE_M: f64 = 1.3;
+
 impl ClosedLoopArgs {
+    /// The soft lane margin of the plans [m]: as given, else [`TRACK_SOFT_LANE_M`] on a
+    /// track and none on a scenario road.
+    pub fn soft_lane(&self) -> f64 {
+        let on_track = self.road.track.is_some() || self.road.track_profile.is_some();
+        self.soft_lane_m
+            .unwrap_or(if on_track { TRACK_SOFT_LANE_M } else { 0.0 })
+    }
+
     /// The simulated-time cap: as given, else 60 s plus 1 s per 15 m of the drive.
     fn duration(&self, lap_m: f64) -> f64 {
         self.duration_s.unwrap_or_else(|| {
@@ -238,8 +250,9 @@ fn spawn_pair(
         // One token: a negative floor would otherwise read as an option.
         pc.arg(format!("--margin-floor-m={m}"));
     }
-    if let Some(m) = args.soft_lane_m {
-        pc.arg("--soft-lane-m").arg(m.to_string());
+    let soft = args.soft_lane();
+    if soft > 0.0 {
+        pc.arg("--soft-lane-m").arg(soft.to_string());
     }
     if let Some(w) = args.soft_lane_weight {
         pc.arg("--soft-lane-weight").arg(w.to_string());

@@ -76,6 +76,7 @@ pub fn extend(args: &ClosedLoopArgs, map: &RoadMap, trace_dir: &Path, obj: &mut 
     }
     o.insert("track".into(), json!(name));
     o.insert("lane_margin_m".into(), json!(args.road.margin()));
+    o.insert("soft_lane_m".into(), json!(args.soft_lane()));
     o.insert("plans_published".into(), pf("plans_published"));
     o.insert("plans_not_converged".into(), pf("not_converged"));
     o.insert("deadline_misses".into(), deadline_misses);

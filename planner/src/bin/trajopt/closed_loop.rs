@@ -113,11 +113,11 @@ pub struct ClosedLoopArgs {
     road: road::RoadOpts,
 }
 
-/// Soft lane margin of the plans on a track when not given [m] (docs/closed-loop.md).
+/// Soft lane margin of the plans on a track when not given \[m\] (docs/closed-loop.md).
 const TRACK_SOFT_LANE_M: f64 = 1.3;
 
 impl ClosedLoopArgs {
-    /// The soft lane margin of the plans [m]: as given, else [`TRACK_SOFT_LANE_M`] on a
+    /// The soft lane margin of the plans \[m\]: as given, else [`TRACK_SOFT_LANE_M`] on a
     /// track and none on a scenario road.
     pub fn soft_lane(&self) -> f64 {
         let on_track = self.road.track.is_some() || self.road.track_profile.is_some();

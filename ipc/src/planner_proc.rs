@@ -12,7 +12,6 @@
 //! nothing either (`ipc/tests/hot_path_alloc.rs`); only logging a refused or failed state
 //! allocates.
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use iceoryx2::port::listener::Listener;
@@ -33,7 +32,9 @@ use crate::services::{ipc_err, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
 use crate::stats::Latency;
 
+mod args;
 pub mod budget;
+mod end_speed;
 mod intake;
 pub mod publish_policy;
 mod record;
@@ -41,127 +42,9 @@ mod relaxed;
 mod report;
 mod send;
 mod soft_lane;
+pub use args::{PlannerArgs, ARREST_LATERAL_ACCEL_MPS2, MARGIN_FLOOR_M, MARGIN_RAMP_M};
 pub use intake::{LastPlanned, Rejected};
 pub use record::{CycleRecorder, WarmRecord};
-
-/// Distance over which the lane margin ramps in from the lane edge \[m\].
-pub const MARGIN_RAMP_M: f64 = 20.0;
-
-/// Closest to an edge the drift allowance takes a plan's margin ramp \[m\]
-/// (`--margin-floor-m`, `StartRamp::floor_m`).
-pub const MARGIN_FLOOR_M: f64 = 0.3;
-
-/// Lateral acceleration the start ramp assumes a car uses to stop moving toward an edge
-/// \[m/s^2\] (`ClosedRoad::window_from`; about the car's grip). Without the allowance, a
-/// car at the margin heading out at 1-2 m/s made the plan locally infeasible (all seven
-/// failures of three oval laps with the default mismatch); 4 m/s^2 also solves them but
-/// lets the plans ride closer to the edge (docs/closed-loop.md).
-pub const ARREST_LATERAL_ACCEL_MPS2: f64 = 8.0;
-
-/// Command-line options of `planner_proc`.
-// clap prints these doc comments as the --help text, which would show the escapes of
-// the unit brackets verbatim: the brackets stay as they are, and rustdoc keeps them as text.
-#[allow(rustdoc::broken_intra_doc_links)]
-#[derive(clap::Args, Debug, Clone)]
-pub struct PlannerArgs {
-    /// Scenario file (a closed road, or an obstacle file with --segment).
-    #[arg(long, default_value = "config/scenarios/oval.toml")]
-    pub scenario: PathBuf,
-    /// The road options (--track, --track-profile, --segment, ...).
-    #[command(flatten)]
-    pub road: crate::road::RoadArgs,
-    /// Vehicle file.
-    #[arg(long, default_value = "config/vehicles/lc500.toml")]
-    pub vehicle: PathBuf,
-    /// Solver settings file.
-    #[arg(long, default_value = "config/solver.toml")]
-    pub solver: PathBuf,
-    /// iceoryx2 service-name prefix (unique per closed loop).
-    #[arg(long, default_value = crate::services::DEFAULT_PREFIX)]
-    pub service_prefix: String,
-    /// Replanning rate [Hz].
-    #[arg(long, default_value_t = 10.0)]
-    pub rate_hz: f64,
-    /// Wall-clock budget of one cycle's solve [ms] (overrides the solver file's
-    /// max_time_s; default: 80 % of the period 1 / --rate-hz).
-    #[arg(long)]
-    pub budget_ms: Option<f64>,
-    /// Budget of the solves until the first plan is sent [ms] (at least --budget-ms; the
-    /// tracker waits for its first plan).
-    #[arg(long, default_value_t = 1000.0)]
-    pub first_budget_ms: f64,
-    /// Alias of --budget-ms in seconds.
-    #[arg(long, hide = true, conflicts_with = "budget_ms")]
-    pub max_solve_s: Option<f64>,
-    /// Lane margin the plan keeps from each edge [m] (room for tracking error).
-    #[arg(long, default_value_t = 0.5)]
-    pub lane_margin_m: f64,
-    /// Lane margin of a relaxed plan [m] (capped at --lane-margin-m): after a cycle without a
-    /// plan of its own, the next cycles on a closed road plan with this margin and the tire
-    /// saturation bound --relaxed-saturation (docs/closed-loop.md). 0.6 m leaves the
-    /// tracker 0.4 m of lateral error before the CG comes within 0.2 m of an edge.
-    #[arg(long, default_value_t = 0.6)]
-    pub relaxed_margin_m: f64,
-    /// Distance over which a plan's lane margin ramps in from the car's own distance inside
-    /// an edge [m] (`RoadWindow` of `ClosedRoad::window_from`; the free-start solve and the
-    /// startup budget keep 20 m).
-    #[arg(long, default_value_t = MARGIN_RAMP_M)]
-    pub margin_ramp_m: f64,
-    /// Closest to an edge a plan's margin ramp starts for a car moving toward that edge
-    /// [m] (or the car's own distance, when smaller): the room its sideways motion needs
-    /// to stop is granted down to this floor, not to the edge (negative: past the edge, for
-    /// plans with a soft lane, --soft-lane-m, that pulls them back).
-    #[arg(long, default_value_t = MARGIN_FLOOR_M, allow_hyphen_values = true)]
-    pub margin_floor_m: f64,
-    /// Soft lane margin from each edge of a closed road [m] (0: none): a plan that comes
-    /// closer by d pays about --soft-lane-weight x d^2 seconds instead of being refused,
-    /// so a car a tracking error put there is planned back out rather than made
-    /// infeasible; --lane-margin-m stays the hard bound (`planner::ocp::soft_lane`,
-    /// docs/closed-loop.md).
-    #[arg(long, default_value_t = 0.0)]
-    pub soft_lane_m: f64,
-    /// Weight of the soft lane's penalty [s/m^2] (at 10 the oval's plan keeps within 2 cm
-    /// of its soft lane).
-    #[arg(long, default_value_t = 10.0)]
-    pub soft_lane_weight: f64,
-    /// Tire saturation bound of a relaxed plan (sigma - sigma_sl <= this; at least the
-    /// vehicle file's eps_sat).
-    #[arg(long, default_value_t = 0.05)]
-    pub relaxed_saturation: f64,
-    /// Relaxed cycles in a row that sent their own plan before the nominal problem resumes
-    /// (0: never relax).
-    #[arg(long, default_value_t = 10)]
-    pub relaxed_cycles: u32,
-    /// Fraction of the vehicle file's tire-road friction and of its brake torques the
-    /// plans use (0.5 to 1): the grip left over is the tracker's authority to correct
-    /// errors and the margin for a road that grips less than the file says
-    /// (docs/plant-and-tracker.md).
-    #[arg(long, default_value_t = 1.0)]
-    pub friction_scale: f64,
-    /// Guess of a cold (not warm-started) solve: `equilibrium` (paper eq. 8, constant
-    /// speed) or `road_speed` (the equilibrium capped by the speeds the window's curvature
-    /// allows, `planner::guess::fill_road_speed`).
-    #[arg(long, default_value = "equilibrium", value_parser = ["equilibrium", "road_speed"])]
-    pub cold_guess: String,
-    /// Warm-start from the previous plan shifted in s, primal and dual, with a barrier
-    /// parameter matched to the shifted point (`Planner::replan_warm`, docs/solver.md);
-    /// `off` starts every plan from the cold guess.
-    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
-    pub warm_start: String,
-    /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
-    #[arg(long)]
-    pub exit_on_stdin_eof: bool,
-    /// Stop after this many seconds (0: run until stopped).
-    #[arg(long, default_value_t = 0.0)]
-    pub max_runtime_s: f64,
-    /// Record every plan's input and output to this MCAP file (copied into a preallocated
-    /// slot after the plan is published, outside the timed solve; one MCAP chunk per plan,
-    /// so a killed planner loses at most the plan being written; `replay run` re-solves
-    /// them). A warm-started plan also records its shifted guess and multipliers, so it
-    /// replays on its own.
-    #[arg(long)]
-    pub record: Option<PathBuf>,
-}
 
 /// Why the planner process failed.
 #[derive(Debug, thiserror::Error)]
@@ -323,6 +206,8 @@ struct PlannerLoop {
     /// Soft lane margin from each edge \[m\] (`--soft-lane-m`; used when the spec's soft
     /// lane is on).
     soft_margin: f64,
+    /// Speed envelope for the plans' last node (`--end-speed-envelope`; `None`: off).
+    envelope: Option<end_speed::EndSpeed>,
     warm_start: bool,
     /// Guess of a cold solve.
     cold_guess: GuessKind,
@@ -418,6 +303,7 @@ impl PlannerLoop {
         settings.max_time_s = budget_ms * 1e-3;
         let ds = sc.ds();
         let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
+        let envelope = end_speed::setup(&sc, args);
         let recorded_settings = settings;
         settings.max_time_s = first_budget_ms * 1e-3;
         let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
@@ -477,6 +363,7 @@ impl PlannerLoop {
                 floor_m: args.margin_floor_m,
             },
             soft_margin: args.soft_lane_m,
+            envelope,
             warm_start: args.warm_start == "on",
             cold_guess,
             recorder,
@@ -590,6 +477,9 @@ impl PlannerLoop {
             &mut cy.road,
         );
         soft_lane::update(cy, &self.sc, state, (self.ds, self.soft_margin));
+        if let Some(env) = &self.envelope {
+            end_speed::update(cy, env, state, self.ds);
+        }
         // Plan from the measured state, re-referenced to s = t = 0, nudged into the bounds
         // the OCP enforces so a slightly-out state stays plannable.
         let mut x0 = state.x;

@@ -18,6 +18,7 @@ use serde::Deserialize;
 
 use crate::msg::{fnv1a, RoadId, HORIZON_N};
 
+pub mod envelope;
 pub mod footprint;
 mod source;
 pub use source::{RoadArgs, TRACK_HORIZON_M, TRACK_SLEW_WEIGHT, TRACK_SPEEDS_MPS};
@@ -368,6 +369,8 @@ pub struct RoadWindow {
     pub soft_e_max: [f64; HORIZON_N + 1],
     /// Whether the soft bounds are set.
     pub soft_on: bool,
+    /// Speed bound of the last node [m/s] ([`envelope::SpeedEnvelope`]; infinite: none).
+    pub v_end_max: f64,
 }
 
 impl Default for RoadWindow {
@@ -379,6 +382,7 @@ impl Default for RoadWindow {
             soft_e_min: [0.0; HORIZON_N + 1],
             soft_e_max: [0.0; HORIZON_N + 1],
             soft_on: false,
+            v_end_max: f64::INFINITY,
         }
     }
 }

@@ -260,6 +260,14 @@ impl<const N: usize> Planner<N> {
         Ok(())
     }
 
+    /// Sets the speed bound of the last node of the following solves
+    /// ([`crate::ocp::OcpSpec::v_end_max`]; `f64::INFINITY`: v_max alone) in place.
+    /// Allocates nothing; a bound at or below v_min leaves the planner as it was.
+    pub fn set_end_speed_cap(&mut self, v_end_max: f64) -> Result<(), PlanError> {
+        self.nlp.set_end_speed_cap(v_end_max)?;
+        Ok(())
+    }
+
     /// Writes a new road window and the fixed initial state x0 into the transcription,
     /// after checking them; a refused input leaves the planner as it was.
     pub(crate) fn set_window(

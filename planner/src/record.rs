@@ -267,6 +267,7 @@ pub fn plan_input(
         length_m: spec.length,
         v_min_mps: spec.v_min,
         v_max_mps: spec.v_max,
+        v_end_max_mps: spec.v_end_max,
         steering_slew_weight: spec.steering_slew_weight,
         soft_lane_weight: spec.soft_lane.weight,
         enforce_tire_saturation: spec.enforce_tire_saturation,
@@ -331,7 +332,7 @@ pub fn write_output(
 
 /// Rewrites the fields of a recorded input that change from one replanning cycle to the
 /// next (seq, stamp, the road ahead: k_ref, e_min, e_max and the soft lane's bounds, empty
-/// without one; the initial state) in place, leaving the problem's
+/// without one; the last node's speed bound; the initial state) in place, leaving the problem's
 /// constants (name, guess, horizon, bounds, vehicle, settings) as [`plan_input`] wrote
 /// them: allocates nothing when the road vectors have the capacity. The result equals
 /// [`plan_input`] of the spec with that road and initial state.
@@ -339,11 +340,12 @@ pub fn update_input(
     input: &mut PlanInput,
     seq: u64,
     stamp_ns: u64,
-    road: [&[f64]; 5],
+    (road, v_end_max): ([&[f64]; 5], f64),
     initial: InitialState,
 ) {
     input.seq = seq;
     input.stamp_ns = stamp_ns;
+    input.v_end_max_mps = v_end_max;
     let fields = [
         &mut input.kappa,
         &mut input.e_min,
@@ -406,6 +408,7 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, RecordedSta
         e_max: input.e_max.clone(),
         v_min: input.v_min_mps,
         v_max: input.v_max_mps,
+        v_end_max: input.v_end_max_mps,
         enforce_tire_saturation: input.enforce_tire_saturation,
         steering_slew_weight: input.steering_slew_weight,
         soft_lane: crate::ocp::SoftLane::new(

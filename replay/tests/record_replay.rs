@@ -69,10 +69,11 @@ fn inputs_round_trip_bit_exactly_through_the_file() {
     assert!(e.contains("config_hash"), "{e}");
 }
 
-/// A soft lane (its weight and bounds) is part of the recorded input: it survives the
-/// CDR encoding bit for bit, rebuilds the same problem, and a bad bound is refused by name.
+/// A soft lane (its weight and bounds) and the end-speed bound are part of the recorded
+/// input: they survive the CDR encoding bit for bit, rebuild the same problem, and a bad
+/// bound is refused by name.
 #[test]
-fn a_soft_lane_round_trips_through_the_recording_and_is_checked() {
+fn a_soft_lane_and_an_end_speed_round_trip_through_the_recording_and_are_checked() {
     use plan_record::cdr::{decode_input, encode_input, Encoder};
     let rec = Recording::from_bytes(common::valid_bytes()).unwrap();
     let (mut spec, settings, start) = problem_from(&rec.inputs[0]).unwrap();
@@ -82,6 +83,7 @@ fn a_soft_lane_round_trips_through_the_recording_and_is_checked() {
     let lo: Vec<f64> = spec.e_min.iter().map(|e| e + 0.7).collect();
     let hi: Vec<f64> = spec.e_max.iter().map(|e| e - 0.7).collect();
     spec.soft_lane = planner::ocp::SoftLane::new(10.0, lo, hi);
+    spec.v_end_max = 23.456789;
     let input = plan_input(&spec, &settings, guess, 7, 8);
     let mut e = Encoder::default();
     encode_input(&mut e, &input);
@@ -89,6 +91,11 @@ fn a_soft_lane_round_trips_through_the_recording_and_is_checked() {
     assert_eq!(decoded, input);
     let (again, _, _) = problem_from(&decoded).unwrap();
     assert_eq!(again.soft_lane, spec.soft_lane);
+    assert_eq!(again.v_end_max.to_bits(), spec.v_end_max.to_bits());
+    let mut slow = decoded.clone();
+    slow.v_end_max_mps = slow.v_min_mps;
+    let e = problem_from(&slow).unwrap_err().to_string();
+    assert!(e.contains("v_end_max"), "{e}");
     let mut bad = decoded.clone();
     bad.soft_e_max[40] = f64::NAN;
     let e = problem_from(&bad).unwrap_err().to_string();

@@ -110,7 +110,7 @@ impl CycleRecorder {
             &mut slot.input,
             seq,
             stamp_in,
-            road.slices(),
+            (road.slices(), road.v_end_max),
             InitialState::Fixed(x0),
         );
         (slot.input.vehicle, slot.input.config_hash) = self.vehicles[usize::from(relaxed)];

@@ -5,11 +5,13 @@
 //! A track's planning problem is the race-segment OCP (`config/scenarios/segments.toml`
 //! defaults: N = 100 over 250 m, tire saturation on, steering-slew weight 1 1/s) whose
 //! road is the profile's window ahead of the car, with the speed capped at
-//! `--track-v-max-mps` (default 55 m/s). The cap keeps the replanning recursively
-//! feasible: the OCP's end state is free, so a plan only brakes for the corners inside its
-//! 250 m window; from 70 m/s a hairpin (about 12 m/s) that enters the window is already
-//! closer than the braking distance, and the next plan from the measured state is
-//! infeasible. From 55 m/s the braking to 12 m/s takes about 160 m at 9 m/s^2. The road id hashes
+//! `--track-v-max-mps` (default 55 m/s). The OCP's end state is free, so a plan only
+//! brakes for the corners inside its 250 m window; the planner process bounds the last
+//! node's speed by the road's speed envelope (`--end-speed-envelope`, [`super::envelope`])
+//! so that a plan never ends closer to a curve than its braking distance. The cap keeps
+//! that bound within reach: from 55 m/s the car can brake to rest inside the window at
+//! 6 m/s^2, from 70 m/s only at 9.8 m/s^2, and at 70 m/s the flying laps left the track
+//! (docs/performance.md). The road id hashes
 //! the profile's bytes and the lap length, so processes given different tracks refuse
 //! each other's messages.
 
@@ -238,6 +240,7 @@ fn load_track(
         v_max: TRACK_SPEEDS_MPS.1,
         enforce_tire_saturation: true,
         steering_slew_weight: TRACK_SLEW_WEIGHT,
+        v_end_max: f64::INFINITY,
         soft_lane: planner::ocp::SoftLane::OFF,
         initial: InitialState::Free,
         vehicle,

@@ -44,6 +44,7 @@ pub fn oval_spec() -> OcpSpec {
         v_max: 40.0,
         enforce_tire_saturation: true,
         steering_slew_weight: 0.0,
+        v_end_max: f64::INFINITY,
         soft_lane: crate::ocp::SoftLane::OFF,
         initial: InitialState::Free,
         vehicle: lc500(),

@@ -35,6 +35,11 @@ pub struct OcpSpec {
     pub v_min: f64,
     /// Speed upper bound [m/s].
     pub v_max: f64,
+    /// Speed upper bound at the last node [m/s], below `v_max` where the road past the
+    /// horizon needs it (`f64::INFINITY`: `v_max` alone). A replanning loop sets it from
+    /// the speed the car can still brake from for the curves beyond the window
+    /// (docs/closed-loop.md, "The end speed").
+    pub v_end_max: f64,
     /// Add the tire saturation constraints (R5) when true.
     pub enforce_tire_saturation: bool,
     /// Weight w [1/s] of the steering-slew term added to t_N in the objective:
@@ -81,7 +86,8 @@ impl OcpSpec {
     /// Checks what the transcription and the guess rely on: N >= 1, a finite positive
     /// length, finite per-node vectors of N + 1 entries with e_min < e_max at every node,
     /// both short of the curvature centre ([`check_road`]),
-    /// 0 < v_min < v_max, a finite fixed initial state, and the vehicle's own domain
+    /// 0 < v_min < v_max, v_end_max > v_min (infinite allowed), a finite fixed initial
+    /// state, and the vehicle's own domain
     /// ([`VehicleParams::check`]). The config loaders ensure this for their files; data
     /// from elsewhere (a recording, a message) must pass it before it is solved.
     pub fn check(&self) -> Result<(), SpecError> {
@@ -107,6 +113,12 @@ impl OcpSpec {
             return Err(bad(
                 "v_max".into(),
                 format!("{} does not exceed v_min = {}", self.v_max, self.v_min),
+            ));
+        }
+        if self.v_end_max.is_nan() || self.v_end_max <= self.v_min {
+            return Err(bad(
+                "v_end_max".into(),
+                format!("{} does not exceed v_min = {}", self.v_end_max, self.v_min),
             ));
         }
         if !(0.0..=MAX_STEERING_SLEW_WEIGHT).contains(&self.steering_slew_weight) {
@@ -295,6 +307,7 @@ mod tests {
             v_max: 60.0,
             enforce_tire_saturation: true,
             steering_slew_weight: 0.0,
+            v_end_max: f64::INFINITY,
             soft_lane: SoftLane::OFF,
             initial: InitialState::Free,
             vehicle: lc500(),
@@ -326,6 +339,8 @@ mod tests {
         assert!(refused(|s| s.kappa[4] = -0.5).contains("e_min[4]"));
         assert!(refused(|s| s.kappa[0] = 0.5).contains("curvature centre"));
         assert!(refused(|s| s.v_min = 0.0).contains("v_min"));
+        assert!(refused(|s| s.v_end_max = f64::NAN).contains("v_end_max"));
+        assert!(refused(|s| s.v_end_max = 1.0).contains("v_end_max"));
         assert!(refused(|s| s.v_max = 0.5).contains("v_max"));
         assert!(refused(|s| s.initial = InitialState::Fixed([f64::NAN; NX])).contains("x0.r"));
         assert!(refused(|s| s.vehicle.c_f = -1.0).contains("tire.C_f"));

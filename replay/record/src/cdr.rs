@@ -247,6 +247,7 @@ pub fn encode_input(e: &mut Encoder, m: &PlanInput) {
     e.f64(m.length_m);
     e.f64(m.v_min_mps);
     e.f64(m.v_max_mps);
+    e.f64(m.v_end_max_mps);
     e.f64(m.steering_slew_weight);
     e.f64(m.soft_lane_weight);
     e.bool(m.enforce_tire_saturation);
@@ -275,6 +276,7 @@ pub fn decode_input(data: &[u8]) -> Result<PlanInput, DecodeError> {
         length_m: d.f64("length_m")?,
         v_min_mps: d.f64("v_min_mps")?,
         v_max_mps: d.f64("v_max_mps")?,
+        v_end_max_mps: d.f64("v_end_max_mps")?,
         steering_slew_weight: d.f64("steering_slew_weight")?,
         soft_lane_weight: d.f64("soft_lane_weight")?,
         enforce_tire_saturation: d.bool("enforce_tire_saturation")?,

@@ -107,6 +107,8 @@ pub struct PlanInput {
     pub v_min_mps: f64,
     /// Speed upper bound \[m/s\].
     pub v_max_mps: f64,
+    /// Speed upper bound at the last node \[m/s\] (infinite: `v_max_mps` alone).
+    pub v_end_max_mps: f64,
     /// Weight of the objective's steering-slew term \[1/s\] (0: pure minimum time).
     pub steering_slew_weight: f64,
     /// Weight of leaving the soft lane bounds \[s/m^2\] (0: no soft lane).

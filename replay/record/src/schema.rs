@@ -31,6 +31,8 @@ uint32 n_intervals
 float64 length_m
 float64 v_min_mps
 float64 v_max_mps
+# speed upper bound at the last node [m/s] (inf: v_max_mps alone)
+float64 v_end_max_mps
 # weight of the objective's steering-slew term [1/s] (0: pure minimum time)
 float64 steering_slew_weight
 # weight of leaving the soft lane bounds [s/m^2] (0: no soft lane)

@@ -98,6 +98,11 @@ pub struct ClosedLoopArgs {
     /// default 10).
     #[arg(long)]
     soft_lane_weight: Option<f64>,
+    /// Bound each plan's end speed by the speed from which the car can still brake for the
+    /// curves past the window (`planner_proc --end-speed-envelope`; default on on a track,
+    /// else off).
+    #[arg(long, value_parser = ["on", "off"])]
+    end_speed_envelope: Option<String>,
     /// Tire saturation bound of a relaxed plan (`planner_proc --relaxed-saturation`).
     #[arg(long, default_value_t = 0.05)]
     relaxed_saturation: f64,
@@ -120,9 +125,26 @@ impl ClosedLoopArgs {
     /// The soft lane margin of the plans \[m\]: as given, else [`TRACK_SOFT_LANE_M`] on a
     /// track and none on a scenario road.
     pub fn soft_lane(&self) -> f64 {
-        let on_track = self.road.track.is_some() || self.road.track_profile.is_some();
-        self.soft_lane_m
-            .unwrap_or(if on_track { TRACK_SOFT_LANE_M } else { 0.0 })
+        self.soft_lane_m.unwrap_or(if self.on_track() {
+            TRACK_SOFT_LANE_M
+        } else {
+            0.0
+        })
+    }
+
+    /// Whether the plans' end speed is bounded by the road's speed envelope: as given,
+    /// else on a track only.
+    pub fn end_speed_envelope(&self) -> &str {
+        match self.end_speed_envelope.as_deref() {
+            Some(v) => v,
+            None if self.on_track() => "on",
+            None => "off",
+        }
+    }
+
+    /// True when the road is a track (`--track` or `--track-profile`).
+    fn on_track(&self) -> bool {
+        self.road.track.is_some() || self.road.track_profile.is_some()
     }
 
     /// The simulated-time cap: as given, else 60 s plus 1 s per 15 m of the drive.
@@ -257,7 +279,9 @@ fn spawn_pair(
     if let Some(w) = args.soft_lane_weight {
         pc.arg("--soft-lane-weight").arg(w.to_string());
     }
-    pc.arg("--warm-start")
+    pc.arg("--end-speed-envelope")
+        .arg(args.end_speed_envelope())
+        .arg("--warm-start")
         .arg(&args.warm_start)
         .arg("--cold-guess")
         .arg(&args.cold_guess)

@@ -235,6 +235,7 @@ pub(super) fn finish(
         v_max,
         enforce_tire_saturation,
         steering_slew_weight,
+        v_end_max: f64::INFINITY,
         soft_lane: crate::ocp::SoftLane::OFF,
         initial,
         vehicle,

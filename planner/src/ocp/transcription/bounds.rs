@@ -92,6 +92,21 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         Ok(())
     }
 
+    /// Sets the speed bound of the last node ([`crate::ocp::OcpSpec::v_end_max`]) and updates
+    /// the bounds in place (allocation-free). A bound that does not exceed v_min (or NaN)
+    /// changes nothing and is refused.
+    pub fn set_end_speed_cap(&mut self, v_end_max: f64) -> Result<(), TranscriptionError> {
+        if v_end_max.is_nan() || v_end_max <= self.spec.v_min {
+            return Err(TranscriptionError::EndSpeed {
+                value: v_end_max,
+                v_min: self.spec.v_min,
+            });
+        }
+        self.spec.v_end_max = v_end_max;
+        self.refresh_bounds();
+        Ok(())
+    }
+
     /// Copies the road into the spec after checking the lengths (nothing changes on a
     /// mismatch); the bounds are left to the caller.
     fn write_road(

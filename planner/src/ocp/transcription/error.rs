@@ -24,6 +24,14 @@ pub enum TranscriptionError {
     /// Soft lane bounds given to a transcription built without a soft lane.
     #[error("the spec has no soft lane (weight 0): its bounds cannot be updated")]
     SoftLaneOff,
+    /// An end-speed bound that leaves the last node no speed.
+    #[error("end speed bound {value} m/s does not exceed v_min = {v_min} m/s")]
+    EndSpeed {
+        /// The bound given.
+        value: f64,
+        /// The spec's lower speed bound.
+        v_min: f64,
+    },
 }
 
 /// Checks that every per-node vector (`(field, length)` pairs) has N + 1 entries; the first

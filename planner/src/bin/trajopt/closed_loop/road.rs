@@ -50,8 +50,8 @@ pub struct RoadOpts {
     /// (default: half the car's body length; 0: the scenario's bound at the CG only).
     #[arg(long)]
     pub obstacle_reach_m: Option<f64>,
-    /// Speed cap of the plans on a track [m/s] (default 55: the plan's end state is free,
-    /// so a faster plan can meet a hairpin closer than its braking distance).
+    /// Speed cap of the plans on a track [m/s] (default 55: from it the car can always
+    /// brake to the end-speed bound inside the 250 m window; at 70 the laps left the track).
     #[arg(long)]
     pub track_v_max_mps: Option<f64>,
     /// Folder for the figures ROAD_lap.png and ROAD_speed.png.

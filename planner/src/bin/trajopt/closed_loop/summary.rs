@@ -77,6 +77,10 @@ pub fn extend(args: &ClosedLoopArgs, map: &RoadMap, trace_dir: &Path, obj: &mut 
     o.insert("track".into(), json!(name));
     o.insert("lane_margin_m".into(), json!(args.road.margin()));
     o.insert("soft_lane_m".into(), json!(args.soft_lane()));
+    o.insert(
+        "end_speed_envelope".into(),
+        json!(args.end_speed_envelope()),
+    );
     o.insert("plans_published".into(), pf("plans_published"));
     o.insert("plans_not_converged".into(), pf("not_converged"));
     o.insert("deadline_misses".into(), deadline_misses);

@@ -290,9 +290,7 @@ impl PlannerLoop {
         let mut sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         sc.spec.vehicle.scale_grip(args.friction_scale);
-        if args.soft_lane_m > 0.0 {
-            soft_lane::setup(&mut sc, args)?;
-        }
+        soft_lane::setup(&mut sc, args)?;
         sc.road.check_margin(args.lane_margin_m).map_err(|e| {
             PlannerProcError::Setup(format!(
                 "--lane-margin-m on {}: {e}",

@@ -357,7 +357,7 @@ fn bad_states_are_counted_and_never_planned_from() {
 /// road cannot have, are refused before any IPC, with exit code 2 and the option named.
 #[test]
 fn options_that_would_hang_or_panic_are_refused_by_name() {
-    let cases: [(&str, &[&str], &str); 11] = [
+    let cases: [(&str, &[&str], &str); 13] = [
         ("tracker_proc", &["--plant-dt-s", "1e-9"], "--plant-dt-s"),
         (
             "tracker_proc",
@@ -392,6 +392,8 @@ fn options_that_would_hang_or_panic_are_refused_by_name() {
             "--soft-lane-weight",
         ),
         ("planner_proc", &["--soft-lane-m", "inf"], "--soft-lane-m"),
+        ("planner_proc", &["--soft-lane-m=-1"], "--soft-lane-m"),
+        ("planner_proc", &["--soft-lane-m", "NaN"], "--soft-lane-m"),
         (
             "planner_proc",
             &[

@@ -9,14 +9,18 @@ use crate::elog;
 use crate::msg::VehicleState;
 use crate::road::Scenario;
 
-/// Puts the soft lane of `--soft-lane-m` and `--soft-lane-weight` into the scenario's spec
-/// (the bounds of the window at s = 0; each cycle writes its own).
+/// Checks `--soft-lane-m` and, when it is not 0, puts the soft lane of it and
+/// `--soft-lane-weight` into the scenario's spec (the bounds of the window at s = 0; each
+/// cycle writes its own).
 pub(super) fn setup(sc: &mut Scenario, args: &PlannerArgs) -> Result<(), PlannerProcError> {
     let m = args.soft_lane_m;
-    if !(m.is_finite() && m <= 10.0) {
+    if !(0.0..=10.0).contains(&m) {
         return Err(PlannerProcError::Setup(format!(
             "--soft-lane-m {m}: must be in [0, 10]"
         )));
+    }
+    if m == 0.0 {
+        return Ok(());
     }
     if !sc.road.is_closed() {
         return Err(PlannerProcError::Setup(

@@ -84,9 +84,10 @@ pub fn initial_row_bounds(spec: &OcpSpec, i: usize) -> (f64, f64) {
     }
 }
 
-/// Variable bounds in scaled units: e and V at every node (V_N also below v_end_max),
-/// V_wr >= v_wr_min (R10), control box; everything else free. With a Fixed initial state, x_0 is left unbounded (its
-/// equality rows pin it; a value on a bound would leave no interior).
+/// Variable bounds in scaled units: e and V at every node (V_N also below v_end_max,
+/// [`end_speed_upper`]), V_wr >= v_wr_min (R10), control box; everything else free. With a
+/// Fixed initial state, x_0 is left unbounded (its equality rows pin it; a value on a bound
+/// would leave no interior).
 pub fn variable_bounds(lay: &Layout, spec: &OcpSpec, x_l: &mut [f64], x_u: &mut [f64]) {
     let p = &spec.vehicle;
     x_l.fill(f64::NEG_INFINITY);
@@ -102,8 +103,7 @@ pub fn variable_bounds(lay: &Layout, spec: &OcpSpec, x_l: &mut [f64], x_u: &mut 
         x_u[lay.x(k, ix::V)] = spec.v_max / X_NOMINAL[ix::V];
         x_l[lay.x(k, ix::VWR)] = p.v_wr_min / X_NOMINAL[ix::VWR];
     }
-    let n = lay.n_intervals;
-    x_u[lay.x(n, ix::V)] = spec.v_max.min(spec.v_end_max) / X_NOMINAL[ix::V];
+    x_u[lay.x(lay.n_intervals, ix::V)] = end_speed_upper(spec);
     let (ul, uu) = control_box(p);
     for k in 0..lay.n_intervals {
         for j in 0..NU {
@@ -111,6 +111,11 @@ pub fn variable_bounds(lay: &Layout, spec: &OcpSpec, x_l: &mut [f64], x_u: &mut 
             x_u[lay.u(k, j)] = uu[j] / U_NOMINAL[j];
         }
     }
+}
+
+/// Upper bound of the last node's speed in scaled units: min(v_max, v_end_max).
+pub fn end_speed_upper(spec: &OcpSpec) -> f64 {
+    spec.v_max.min(spec.v_end_max) / X_NOMINAL[ix::V]
 }
 
 /// Physical control box (lower, upper).

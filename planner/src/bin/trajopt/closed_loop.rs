@@ -272,8 +272,9 @@ fn spawn_pair(
         // One token: a negative floor would otherwise read as an option.
         pc.arg(format!("--margin-floor-m={m}"));
     }
+    // Any value but the default 0 goes on, so that planner_proc refuses a bad one.
     let soft = args.soft_lane();
-    if soft > 0.0 {
+    if soft != 0.0 {
         pc.arg("--soft-lane-m").arg(soft.to_string());
     }
     if let Some(w) = args.soft_lane_weight {

@@ -13,9 +13,10 @@
 
 use super::error::check_node_vectors;
 use super::{DefectScheme, Transcription, TranscriptionError};
+use crate::model::ix;
 use crate::ocp::path_constraints::{
-    initial_row_bounds, rate_row_bounds, variable_bounds, FRICTION_ROWS, INITIAL_ROWS, RATE_ROWS,
-    SATURATION_ROWS,
+    end_speed_upper, initial_row_bounds, rate_row_bounds, variable_bounds, FRICTION_ROWS,
+    INITIAL_ROWS, RATE_ROWS, SATURATION_ROWS,
 };
 use crate::ocp::scaling::saturation_scale;
 use crate::ocp::spec::InitialState;
@@ -92,9 +93,10 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         Ok(())
     }
 
-    /// Sets the speed bound of the last node ([`crate::ocp::OcpSpec::v_end_max`]) and updates
-    /// the bounds in place (allocation-free). A bound that does not exceed v_min (or NaN)
-    /// changes nothing and is refused.
+    /// Sets the speed bound of the last node ([`crate::ocp::OcpSpec::v_end_max`]) and
+    /// updates that one variable bound in place (allocation-free; the other bounds do not
+    /// depend on it). A bound that does not exceed v_min (or NaN) changes nothing and is
+    /// refused.
     pub fn set_end_speed_cap(&mut self, v_end_max: f64) -> Result<(), TranscriptionError> {
         if v_end_max.is_nan() || v_end_max <= self.spec.v_min {
             return Err(TranscriptionError::EndSpeed {
@@ -103,7 +105,8 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             });
         }
         self.spec.v_end_max = v_end_max;
-        self.refresh_bounds();
+        let i = self.layout.x(self.layout.n_intervals, ix::V);
+        self.x_u[i] = end_speed_upper(&self.spec);
         Ok(())
     }
 

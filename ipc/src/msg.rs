@@ -15,6 +15,14 @@ pub use planner::plan::choice::{kind_name, PlanKind};
 
 /// Wire version of every message in this module; bump on any layout change.
 pub const MSG_VERSION: u32 = 3;
+/// [`Trajectory::kind`] of a notice that a cycle found no drivable plan: its solve ended
+/// past convergence with a best iterate beyond the drivable violation, and no previous plan
+/// can be shifted to the car (the first cycle, or the car past the previous plan's reach).
+/// A notice is never driven: its nodes hold the measured state it answers (s and t running
+/// at that speed, controls zero); `status`, `iterations` and `max_violation` are the
+/// failed solve's. Among obstacles the tracker brakes to a stop in its lane on it; on a
+/// closed road it holds its plan until the plan is stale.
+pub const KIND_NO_PLAN: u32 = planner::plan::choice::NO_PLAN_CODE;
 /// Horizon intervals N carried by a [`Trajectory`]: the planner's [`planner::HORIZON`].
 pub const HORIZON_N: usize = planner::HORIZON;
 
@@ -110,9 +118,10 @@ pub struct Trajectory {
     /// 1 when warm-started from the previous plan shifted in s, 0 for the equilibrium guess.
     pub warm_started: u32,
     /// What kind of plan this is ([`PlanKind::code`]: 0 converged, 1 best iterate, 2 the
-    /// previous plan shifted to the car's s; [`kind_name`]). For a shifted previous plan,
-    /// `status` and `iterations` are this cycle's solve's, the trajectory and
-    /// `max_violation` the previous plan's.
+    /// previous plan shifted to the car's s; [`kind_name`]; or [`KIND_NO_PLAN`], a notice
+    /// that the cycle has nothing drivable). For a shifted previous plan, `status` and
+    /// `iterations` are this cycle's solve's, the trajectory and `max_violation` the
+    /// previous plan's.
     pub kind: u32,
     /// Cycles since the trajectory was solved: 0, or how many cycles ago the plan a
     /// shifted previous plan repeats was solved.
@@ -307,6 +316,11 @@ impl VehicleState {
 }
 
 impl Trajectory {
+    /// True for a notice that the cycle had nothing drivable ([`KIND_NO_PLAN`]).
+    pub fn is_no_plan(&self) -> bool {
+        self.kind == KIND_NO_PLAN
+    }
+
     /// Every field zero (version 0: not a valid plan until filled in).
     pub fn zeroed() -> Self {
         Self {
@@ -341,7 +355,7 @@ impl Trajectory {
         if status_name(self.status).is_none() {
             return Err(Invalid::Status(self.status));
         }
-        if kind_name(self.kind).is_none() {
+        if kind_name(self.kind).is_none() && self.kind != KIND_NO_PLAN {
             return Err(Invalid::Kind(self.kind));
         }
         for (field, v) in [
@@ -473,8 +487,10 @@ mod tests {
         m.status = 999;
         assert_eq!(m.validate(7), Err(Invalid::Status(999)));
         let mut m = good_plan();
-        m.kind = 3;
-        assert_eq!(m.validate(7), Err(Invalid::Kind(3)));
+        m.kind = KIND_NO_PLAN;
+        assert_eq!(m.validate(7), Ok(()));
+        m.kind = 4;
+        assert_eq!(m.validate(7), Err(Invalid::Kind(4)));
         let mut m = good_plan();
         m.max_violation = f64::NAN;
         assert_eq!(

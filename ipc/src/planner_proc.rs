@@ -228,6 +228,10 @@ struct PlannerLoop {
     outside: u64,
     states_received: u64,
     published: u64,
+    /// Notices sent that a cycle had no drivable plan.
+    notices: u64,
+    /// True once the start-up budget has ended (see `send::record_cycle_time`).
+    startup_over: bool,
     warm: u64,
     cold: u64,
     failed: u64,
@@ -297,6 +301,14 @@ impl PlannerLoop {
                 args.road.road_file(&args.scenario).display()
             ))
         })?;
+        // Among obstacles the car is already moving at the scenario's start: the first
+        // cycle answers within the steady budget like every other (a plan, or the notice
+        // that there is none), instead of the start-up budget of a car waiting to start.
+        let first_budget_ms = if sc.road.obstacles().is_empty() {
+            first_budget_ms
+        } else {
+            budget_ms
+        };
         let mut settings = sc.settings;
         settings.max_time_s = budget_ms * 1e-3;
         let ds = sc.ds();
@@ -377,6 +389,8 @@ impl PlannerLoop {
             outside: 0,
             states_received: 0,
             published: 0,
+            notices: 0,
+            startup_over: false,
             warm: 0,
             cold: 0,
             failed: 0,

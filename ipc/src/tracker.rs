@@ -136,6 +136,19 @@ impl Default for Gains {
     }
 }
 
+impl Gains {
+    /// The gains of an emergency stop among obstacles: braking at the grip `stop_decel`
+    /// allows on a straight (0.8 mu g of the tracker's model), not the comfort stop of a
+    /// stale plan, since every metre the car still covers carries it toward an obstacle
+    /// no plan clears.
+    pub fn emergency_stop(self, p: &VehicleParams) -> Self {
+        Self {
+            stop_decel: 0.8 * p.mu * p.g,
+            ..self
+        }
+    }
+}
+
 /// Reference of the plan at one arc length, and the tracking errors against it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reference {

@@ -427,23 +427,37 @@ impl TrackerLoop {
             {
                 continue;
             }
+            // Notices are logged with the plans (the figures mark their cycles).
             self.log.plan(m, plant.x[ix::S]);
-            if !matches!(m.status, 0 | 1) {
+            if !matches!(m.status, 0 | 1) && !m.is_no_plan() {
                 self.plans_not_converged += 1;
             }
-            if m.kind == PlanKind::PreviousShifted.code() && !self.sc.road.obstacles().is_empty() {
+            let among_obstacles = !self.sc.road.obstacles().is_empty();
+            if m.is_no_plan() && !among_obstacles {
+                // On a closed road the tracker holds its plan (or keeps waiting for a
+                // first one) and brakes once that plan is stale.
+                continue;
+            }
+            if (m.is_no_plan() || m.kind == PlanKind::PreviousShifted.code()) && among_obstacles {
                 // Among obstacles, a cycle that found no drivable plan ends the drive: the
-                // car brakes to a stop in its lane instead of driving an old plan on.
+                // car brakes to a stop in its lane instead of driving an old plan on. With
+                // no plan yet the car is already moving at its start state, so the drive
+                // starts braking.
                 if !self.no_feasible_plan {
                     elog!(
-                        "tracker: plan {} ended with status {} and no drivable plan; braking to a stop in the lane",
+                        "tracker: {} {} ended with status {} and no drivable plan; braking to a stop in the lane",
+                        if m.is_no_plan() { "cycle of notice" } else { "plan" },
                         m.seq,
-                        m.status
+                        crate::msg::status_name(m.status).unwrap_or("?")
                     );
                     self.no_feasible_plan = true;
                     self.e_hold = plant.x[ix::E];
                 }
                 self.sim_start.get_or_insert_with(Instant::now);
+                continue;
+            }
+            if self.no_feasible_plan {
+                // The car is committed to its stop: later plans are logged, not driven.
                 continue;
             }
             self.kinds.count_code(m.kind);
@@ -475,6 +489,7 @@ impl TrackerLoop {
         let car = &mut self.car;
         let stats = &mut self.stats;
         if !self.stale
+            && !self.no_feasible_plan
             && self.have_plan
             && now.duration_since(self.last_plan_at).as_secs_f64() > args.stale_after_s
         {
@@ -521,6 +536,13 @@ impl TrackerLoop {
                     self.e_hold = r.x[ix::E];
                     u
                 }
+                None if self.no_feasible_plan => brake_to_stop(
+                    &params,
+                    &self.gains.emergency_stop(&params),
+                    &y,
+                    road,
+                    self.e_hold,
+                ),
                 None => brake_to_stop(&params, &self.gains, &y, road, self.e_hold),
             };
             self.controller.applied(u[iu::DELTA]);
@@ -611,6 +633,7 @@ impl TrackerLoop {
             "laps": driven / road.lap(),
             "sim_time_s": plant.x[ix::T],
             "plans_received": inbox.plans,
+            "no_plan_notices_received": inbox.notices,
             "plans_rejected": inbox.rejected,
             "plans_foreign": inbox.foreign.total(),
             "plans_foreign_by_reason": {

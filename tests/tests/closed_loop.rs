@@ -269,6 +269,43 @@ fn the_forgiving_swerve_driven_clears_both_obstacles() {
     assert_eq!(v["outcome"], "cleared", "{v}");
 }
 
+/// The critical swerve with tire saturation has no feasible plan from its 25 m/s start: the
+/// planner says so within its first cycle (a notice, not silence), the car brakes to a
+/// stop in its lane at once, the run ends by itself, and the report says what happened:
+/// no feasible plan, stopped in the lane, the first obstacle hit below the start speed.
+#[test]
+fn the_infeasible_swerve_brakes_in_lane_and_reports_the_contact() {
+    let _serial = serial();
+    let dir = std::env::temp_dir().join(format!("e2e-swerve-crit-{}", std::process::id()));
+    let v = run_closed_loop(
+        0.0,
+        &[
+            "--scenario",
+            "config/scenarios/collision_avoidance.toml",
+            "--segment",
+            "critical",
+            "--tire-saturation",
+            "on",
+            "--out-dir",
+            &dir.to_string_lossy(),
+        ],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(v["outcome"], "stopped_in_lane_no_feasible_plan", "{v}");
+    assert_eq!(v["tracker"]["no_feasible_plan_braking"], true, "{v}");
+    assert!(v["no_plan_notices"].as_u64().unwrap() >= 1, "{v}");
+    assert_eq!(v["plans_converged"], 0, "no plan was driven: {v}");
+    assert_eq!(v["lane_kept"], true, "{v}");
+    assert_eq!(v["obstacles_cleared"], false, "{v}");
+    let impact = v["impact_speed_mps"].as_f64().unwrap();
+    assert!(
+        impact > 0.0 && impact < 25.0,
+        "braked before the contact: {v}"
+    );
+    // The car braked at the grip limit: from 25 m/s it stops within 25^2 / (2 * 5) m.
+    assert!(v["laps_or_distance_m"].as_f64().unwrap() < 62.5, "{v}");
+}
+
 /// A profile with a NaN is refused before any process starts, naming the file and line.
 #[test]
 fn a_bad_track_profile_is_refused_with_its_row() {

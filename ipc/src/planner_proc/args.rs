@@ -45,7 +45,8 @@ pub struct PlannerArgs {
     #[arg(long)]
     pub budget_ms: Option<f64>,
     /// Budget of the solves until the first plan is sent [ms] (at least --budget-ms; the
-    /// tracker waits for its first plan).
+    /// tracker waits for its first plan). Among obstacles the car does not wait, and the
+    /// first solve gets --budget-ms.
     #[arg(long, default_value_t = 1000.0)]
     pub first_budget_ms: f64,
     /// Alias of --budget-ms in seconds.

@@ -11,8 +11,10 @@
 //! fractional shift would smear over two). Past the previous horizon the states are held
 //! at its last node and t runs on at the last node's speed; the decision rule republishes
 //! only while d is at most an eighth of the horizon, so the car never reaches that part. With no usable previous plan (the first
-//! cycle, another tracker run, the car past an eighth of the horizon) the cycle sends nothing and
-//! the tracker holds its plan until it is stale, then brakes in lane.
+//! cycle, another tracker run, the car past an eighth of the horizon) the cycle sends the
+//! notice that it has no drivable plan (`crate::msg::KIND_NO_PLAN`): among obstacles the
+//! tracker brakes to a stop in its lane at once; on a closed road it holds its plan until
+//! the plan is stale, then brakes in lane.
 
 use planner::ip::{SolveInfo, Status};
 use planner::model::{ix, NU, NX};
@@ -173,7 +175,7 @@ impl Policy {
                 match kind {
                     Some(PlanKind::BestIterate) => "sending its best iterate",
                     Some(PlanKind::PreviousShifted) => "republishing the previous plan shifted",
-                    _ => "no usable previous plan, sending nothing",
+                    _ => "no usable previous plan, sending the notice of no drivable plan",
                 }
             );
         }

@@ -17,7 +17,8 @@ impl PlannerLoop {
         );
         let rejected = self.rejected;
         elog!(
-            "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged), {} states dropped, {outside} outside the planner's domain",
+            "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged, {} notices of no drivable plan), {} states dropped, {outside} outside the planner's domain",
+            self.notices,
             rejected.total()
         );
         let recording = match (self.recorder, &args.record) {
@@ -41,6 +42,7 @@ impl PlannerLoop {
             "budget_ms": self.budget_ms,
             "first_budget_ms": self.first_budget_ms,
             "cycles_not_published": self.policy.not_sent,
+            "no_plan_notices": self.notices,
             "first_cycle_ms": self.first_cycle_ms,
             "plans_published": published,
             "warm_starts": warm,

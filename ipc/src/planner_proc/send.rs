@@ -1,18 +1,19 @@
 //! Sending a cycle's plan: the publish policy's decision, then the plan written in place
-//! into a loaned shared-memory sample (allocates nothing).
+//! into a loaned shared-memory sample (allocates nothing). A cycle with nothing drivable
+//! sends a notice that says so ([`KIND_NO_PLAN`]) instead of a plan.
 
 use planner::model::{ix, NU, NX};
 
 use super::{publish_policy, PlannerLoop, Ports, Solved};
 use crate::clock::monotonic_ns;
 use crate::elog;
-use crate::msg::{status_code, PlanKind, VehicleState, HORIZON_N, MSG_VERSION};
+use crate::msg::{status_code, PlanKind, VehicleState, HORIZON_N, KIND_NO_PLAN, MSG_VERSION};
 use crate::services::{ipc_err, IpcError};
 
 impl PlannerLoop {
     /// Decides what the cycle sends ([`publish_policy`]) and publishes it: the planner's
-    /// solution (kept as the previous plan) or the previous plan shifted to the car. Sends
-    /// nothing when there is nothing drivable.
+    /// solution (kept as the previous plan) or the previous plan shifted to the car. When
+    /// there is nothing drivable it sends a notice that says so ([`KIND_NO_PLAN`]).
     pub(super) fn send(
         &mut self,
         ports: &Ports,
@@ -27,7 +28,7 @@ impl PlannerLoop {
             r.after_cycle(self.cy.relaxed_now, own, solved.s_track);
         }
         let Some(kind) = kind else {
-            return Ok(());
+            return self.notify_no_plan(ports, state, solved);
         };
         let meta = if kind == PlanKind::PreviousShifted {
             let (s_origin, to_car) = pol.previous.shift_to(solved.s_track, ds);
@@ -43,17 +44,59 @@ impl PlannerLoop {
             let (xs, us) = (self.cy.planner.states(), self.cy.planner.controls());
             pol.previous
                 .store(xs, us, solved.s_track, state.run_id, viol, cycle);
-            if self.published == 0 {
+            if !self.startup_over {
                 // The first plan is out: the steady budget applies from now on.
-                let mut settings = *self.cy.planner.solver().settings();
-                settings.max_time_s = self.budget_ms * 1e-3;
-                if let Err(e) = self.cy.planner.solver_mut().set_settings(settings) {
-                    elog!("planner: cannot set the cycle budget: {e}");
-                }
+                self.steady_budget();
             }
             (kind, 0, viol, (solved.s_track, state.x[ix::T]))
         };
         self.publish(ports, state, solved, meta)
+    }
+
+    /// Sends the notice that this cycle has no drivable plan ([`KIND_NO_PLAN`]). Among
+    /// obstacles the car does not wait for a first plan on it (it brakes in its lane), so
+    /// the steady budget applies from the first notice; on a closed road the car waits for
+    /// its first plan, which keeps the start-up budget.
+    fn notify_no_plan(
+        &mut self,
+        ports: &Ports,
+        state: &VehicleState,
+        solved: &Solved,
+    ) -> Result<(), IpcError> {
+        let among_obstacles = !self.sc.road.obstacles().is_empty();
+        if !self.startup_over && among_obstacles {
+            self.steady_budget();
+        }
+        let viol = solved.info.as_ref().map_or(f64::NAN, |i| i.max_violation);
+        let viol = if viol.is_finite() { viol } else { f64::MAX };
+        let origin = (solved.s_track, state.x[ix::T]);
+        self.write_sample(ports, state, solved, (KIND_NO_PLAN, 0, viol, origin))?;
+        self.record_cycle_time(solved, among_obstacles);
+        self.notices += 1;
+        Ok(())
+    }
+
+    /// The steady solve budget from now on (the start-up budget ends).
+    fn steady_budget(&mut self) {
+        let mut settings = *self.cy.planner.solver().settings();
+        settings.max_time_s = self.budget_ms * 1e-3;
+        if let Err(e) = self.cy.planner.solver_mut().set_settings(settings) {
+            elog!("planner: cannot set the cycle budget: {e}");
+        }
+    }
+
+    /// Records the cycle's time (start to send). The cycle that ends the start-up (the
+    /// first plan, or among obstacles the first notice) runs under the start-up budget and
+    /// is reported on its own; a notice on a closed road before the first plan is a
+    /// start-up cycle too (the car is waiting), not a steady one.
+    fn record_cycle_time(&mut self, solved: &Solved, ends_startup: bool) {
+        let ns = solved.t0.elapsed().as_nanos() as u64;
+        if self.startup_over {
+            self.cycle_lat.record_ns(ns);
+        } else if ends_startup {
+            self.first_cycle_ms = ns as f64 * 1e-6;
+            self.startup_over = true;
+        }
     }
 
     /// Writes the plan the cycle sends in place into a loaned sample, sends it and notifies
@@ -65,17 +108,41 @@ impl PlannerLoop {
         ports: &Ports,
         state: &VehicleState,
         solved: &Solved,
-        (kind, age, viol, (s_origin, t_origin)): (PlanKind, u32, f64, (f64, f64)),
+        (kind, age, viol, origin): (PlanKind, u32, f64, (f64, f64)),
+    ) -> Result<(), IpcError> {
+        self.write_sample(ports, state, solved, (kind.code(), age, viol, origin))?;
+        self.record_cycle_time(solved, true);
+        self.published += 1;
+        Ok(())
+    }
+
+    /// Loans a sample, writes the message of kind code `kind` into it in place and sends
+    /// it: the previous plan shifted, the planner's solution, or for a notice
+    /// ([`KIND_NO_PLAN`]) the measured state held at every node.
+    fn write_sample(
+        &mut self,
+        ports: &Ports,
+        state: &VehicleState,
+        solved: &Solved,
+        (kind, age, viol, (s_origin, t_origin)): (u32, u32, f64, (f64, f64)),
     ) -> Result<(), IpcError> {
         let mut sample = ports
             .publisher
             .loan_uninit()
             .map_err(ipc_err("loan trajectory"))?;
         let p = sample.payload_mut().as_mut_ptr();
-        let (xs, us) = if kind == PlanKind::PreviousShifted {
+        let notice = kind == KIND_NO_PLAN;
+        let (xs, us) = if kind == PlanKind::PreviousShifted.code() {
             self.policy.previous.shifted_plan()
         } else {
             (self.cy.planner.states(), self.cy.planner.controls())
+        };
+        let held = |k: usize| {
+            let mut x = state.x;
+            let s = k as f64 * self.ds;
+            x[ix::S] = s;
+            x[ix::T] = s / state.x[ix::V].max(1.0);
+            x
         };
         let (status, iterations) = match &solved.info {
             Some(info) => (info.status, info.iterations),
@@ -95,7 +162,7 @@ impl PlannerLoop {
             addr_of_mut!((*p).from_state_stamp_ns).write(state.stamp_ns);
             addr_of_mut!((*p).iterations).write(iterations.min(u32::MAX as usize) as u32);
             addr_of_mut!((*p).warm_started).write(u32::from(solved.start.warm_started()));
-            addr_of_mut!((*p).kind).write(kind.code());
+            addr_of_mut!((*p).kind).write(kind);
             addr_of_mut!((*p).age_cycles).write(age);
             addr_of_mut!((*p).max_violation).write(viol);
             addr_of_mut!((*p).solve_time_s).write(solved.solve_time_s);
@@ -105,11 +172,11 @@ impl PlannerLoop {
             addr_of_mut!((*p).x_from).write(state.x);
             let px = addr_of_mut!((*p).x) as *mut [f64; NX];
             for k in 0..=HORIZON_N {
-                px.add(k).write(xs[k]);
+                px.add(k).write(if notice { held(k) } else { xs[k] });
             }
             let pu = addr_of_mut!((*p).u) as *mut [f64; NU];
             for k in 0..HORIZON_N {
-                pu.add(k).write(us[k]);
+                pu.add(k).write(if notice { [0.0; NU] } else { us[k] });
             }
             addr_of_mut!((*p).stamp_ns).write(monotonic_ns());
             sample.assume_init()
@@ -119,14 +186,6 @@ impl PlannerLoop {
             .notifier
             .notify()
             .map_err(ipc_err("notify trajectory"))?;
-        // The first plan's cycle runs under the start-up budget: reported on its own.
-        let ns = solved.t0.elapsed().as_nanos() as u64;
-        if self.published == 0 {
-            self.first_cycle_ms = ns as f64 * 1e-6;
-        } else {
-            self.cycle_lat.record_ns(ns);
-        }
-        self.published += 1;
         Ok(())
     }
 }

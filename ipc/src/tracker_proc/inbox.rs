@@ -14,6 +14,8 @@ pub(super) struct Inbox {
     pub(super) plans: u64,
     /// Invalid plans.
     pub(super) rejected: u64,
+    /// Own notices that a cycle had no drivable plan (not plans: not counted in `plans`).
+    pub(super) notices: u64,
     pub(super) foreign: ForeignPlans,
     pub(super) ipc_lat: Latency,
     pub(super) plan_lat: Latency,
@@ -25,14 +27,15 @@ impl Inbox {
             own: Ownership::new(run_id),
             plans: 0,
             rejected: 0,
+            notices: 0,
             foreign: ForeignPlans::default(),
             ipc_lat: Latency::new(),
             plan_lat: Latency::new(),
         }
     }
 
-    /// True when `m` is a valid plan of this run (received at `now_ns`); logs the first
-    /// invalid and foreign ones. Allocates nothing unless it logs.
+    /// True when `m` is a valid plan or notice of this run (received at `now_ns`); logs the
+    /// first invalid and foreign ones. Allocates nothing unless it logs.
     pub(super) fn accept(&mut self, m: &Trajectory, road: RoadId, ds: f64, now_ns: u64) -> bool {
         if let Err(e) = m.validate_for(road, ds) {
             self.rejected += 1;
@@ -52,6 +55,10 @@ impl Inbox {
                 );
             }
             return false;
+        }
+        if m.is_no_plan() {
+            self.notices += 1;
+            return true;
         }
         self.ipc_lat.record_ns(now_ns.saturating_sub(m.stamp_ns));
         self.plan_lat

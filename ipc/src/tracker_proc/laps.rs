@@ -1,6 +1,7 @@
 //! What a drive shows, logged at every control step without allocating: lap times (the
 //! car's unwrapped s crossing start_s + k lap), the CG's margin to the nearer lane edge,
-//! the peak sideslip, the footprint's clearance of the obstacles, and the driven trace
+//! the peak sideslip, the footprint's clearance of the obstacles (and the speed where it
+//! first touched one), and the driven trace
 //! and plan log for the figures (preallocated for the run's cap, written once at the end).
 
 use std::path::Path;
@@ -61,6 +62,8 @@ pub struct RunLog {
     max_beta: f64,
     obstacles: Vec<Quad>,
     min_clearance: f64,
+    /// The CG's speed and s where the footprint first overlapped an obstacle box.
+    impact: Option<(f64, f64)>,
     trace: Vec<TraceRow>,
     next_trace_t: f64,
     plans: Vec<PlanRow>,
@@ -91,6 +94,7 @@ impl RunLog {
                 f64::INFINITY
             },
             obstacles,
+            impact: None,
             trace: Vec::with_capacity(rows),
             next_trace_t: 0.0,
             plans: Vec::with_capacity(plans),
@@ -111,7 +115,11 @@ impl RunLog {
         if !self.obstacles.is_empty() {
             let car = footprint(s, e, x[ix::DPSI] - x[ix::BETA], CAR_LENGTH_M, CAR_WIDTH_M);
             for b in &self.obstacles {
-                self.min_clearance = self.min_clearance.min(clearance(&car, b));
+                let c = clearance(&car, b);
+                self.min_clearance = self.min_clearance.min(c);
+                if c < 0.0 && self.impact.is_none() {
+                    self.impact = Some((x[ix::V], s));
+                }
             }
         }
         if x[ix::T] + 1e-9 >= self.next_trace_t && self.trace.len() < self.trace.capacity() {
@@ -191,6 +199,8 @@ impl RunLog {
             "max_sideslip_rad": self.max_beta,
             "obstacles_cleared": cleared,
             "min_obstacle_clearance_m": finite(self.min_clearance),
+            "impact_speed_mps": self.impact.map(|(v, _)| v),
+            "impact_s_m": self.impact.map(|(_, s)| s),
             "footprint_length_m": CAR_LENGTH_M,
             "footprint_width_m": CAR_WIDTH_M,
             "trace_rows": self.trace.len(),
@@ -273,5 +283,75 @@ mod tests {
         );
         assert!(log.laps_done());
         assert!((log.json()["min_edge_margin_m"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    }
+
+    /// A car braking in its lane from 20 m/s at 5 m/s^2 into an obstacle that fills the
+    /// lane from s = 30 m: the first contact is logged where the body's front reaches the
+    /// box, at the speed the car has there.
+    #[test]
+    fn the_first_contact_with_an_obstacle_is_logged_with_the_speed_there() {
+        use planner::track::BoundsOverride;
+        let obstacle = BoundsOverride {
+            s_from: 30.0,
+            s_to: 35.0,
+            e_min: 1.0,
+            e_max: 3.5,
+        };
+        let road = ClosedRoad::open(100.0, 0.0, -3.5, 3.5, vec![obstacle]);
+        let mut log = RunLog::new(&road, 0.0, 1, 10.0);
+        let (v0, a, dt) = (20.0, 5.0, 0.001);
+        let mut x = [0.0; NX];
+        for i in 0..4000 {
+            let t = i as f64 * dt;
+            x[ix::T] = t;
+            x[ix::V] = (v0 - a * t).max(0.0);
+            x[ix::S] = if x[ix::V] > 0.0 {
+                v0 * t - 0.5 * a * t * t
+            } else {
+                v0 * v0 / (2.0 * a)
+            };
+            log.step(&x, &road);
+        }
+        let j = log.json();
+        assert_eq!(j["obstacles_cleared"], false, "{j}");
+        let (v, s) = (
+            j["impact_speed_mps"].as_f64().unwrap(),
+            j["impact_s_m"].as_f64().unwrap(),
+        );
+        // Contact when the front (half a body length ahead of the CG) reaches s = 30 m.
+        let s_contact = 30.0 - 0.5 * CAR_LENGTH_M;
+        assert!(
+            (s - s_contact).abs() < 0.05,
+            "contact at s = {s}, want {s_contact}"
+        );
+        let v_contact = (v0 * v0 - 2.0 * a * s_contact).sqrt();
+        assert!(
+            (v - v_contact).abs() < 0.02,
+            "contact at {v} m/s, want {v_contact}"
+        );
+    }
+
+    #[test]
+    fn a_drive_clear_of_the_obstacles_logs_no_contact() {
+        use planner::track::BoundsOverride;
+        let obstacle = BoundsOverride {
+            s_from: 30.0,
+            s_to: 35.0,
+            e_min: -3.5,
+            e_max: -1.0,
+        };
+        let road = ClosedRoad::open(100.0, 0.0, -3.5, 3.5, vec![obstacle]);
+        let mut log = RunLog::new(&road, 0.0, 1, 10.0);
+        let mut x = [0.0; NX];
+        x[ix::V] = 20.0;
+        x[ix::E] = -2.0;
+        for i in 0..3000 {
+            x[ix::T] = i as f64 * 0.001;
+            x[ix::S] = 20.0 * x[ix::T];
+            log.step(&x, &road);
+        }
+        let j = log.json();
+        assert_eq!(j["obstacles_cleared"], true, "{j}");
+        assert!(j["impact_speed_mps"].is_null(), "{j}");
     }
 }

@@ -96,6 +96,10 @@ impl PlanKind {
     }
 }
 
+/// Wire code of a notice that a cycle has no drivable plan (the decision's `None`): the
+/// code after [`PlanKind::ALL`]'s, so it is never a plan's.
+pub const NO_PLAN_CODE: u32 = PlanKind::ALL.len() as u32;
+
 /// Name of a plan-kind wire code (`None` for an unknown code).
 pub fn kind_name(code: u32) -> Option<&'static str> {
     PlanKind::from_code(code).map(PlanKind::name)

@@ -177,6 +177,11 @@ fn draw_lap(
     Ok(())
 }
 
+/// A notice that its cycle had no drivable plan: its nodes hold the measured state.
+fn notice(p: &PlanLine) -> bool {
+    p.kind == planner::plan::choice::NO_PLAN_CODE
+}
+
 fn draw_speed(
     root: &planner::plot::Canvas<'_>,
     name: &str,
@@ -190,7 +195,12 @@ fn draw_speed(
         .rows
         .iter()
         .map(|r| r[3])
-        .chain(plans.iter().flat_map(|p| p.v.iter().copied()))
+        .chain(
+            plans
+                .iter()
+                .filter(|p| !notice(p))
+                .flat_map(|p| p.v.iter().copied()),
+        )
         .fold(1.0, f64::max);
     let mut chart = ChartBuilder::on(root)
         .caption(
@@ -210,7 +220,7 @@ fn draw_speed(
         .draw()
         .map_err(draw_err)?;
     let n = plans.len().max(1) as f64;
-    for (i, p) in plans.iter().enumerate() {
+    for (i, p) in plans.iter().enumerate().filter(|(_, p)| !notice(p)) {
         let c = speed_colour(i as f64 / n).mix(0.35);
         let pts: Vec<(f64, f64)> =
             p.v.iter()

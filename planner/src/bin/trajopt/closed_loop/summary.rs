@@ -69,6 +69,8 @@ pub fn extend(args: &ClosedLoopArgs, map: &RoadMap, trace_dir: &Path, obj: &mut 
         "outcome",
         "obstacles_cleared",
         "min_obstacle_clearance_m",
+        "impact_speed_mps",
+        "impact_s_m",
         "start_state",
         "start_s_m",
     ] {
@@ -83,6 +85,7 @@ pub fn extend(args: &ClosedLoopArgs, map: &RoadMap, trace_dir: &Path, obj: &mut 
     );
     o.insert("plans_published".into(), pf("plans_published"));
     o.insert("plans_not_converged".into(), pf("not_converged"));
+    o.insert("no_plan_notices".into(), pf("no_plan_notices"));
     o.insert("deadline_misses".into(), deadline_misses);
     for k in ["cycle_ms_p50", "cycle_ms_p99", "cycle_ms_max"] {
         o.insert(k.into(), pf(k));
@@ -135,9 +138,16 @@ pub fn text(obj: &Value) -> String {
         num("cycle_ms_p99"),
         num("cycle_ms_max"),
         obj["outcome"].as_str().unwrap_or("?"),
-        match obj["min_obstacle_clearance_m"].as_f64() {
-            Some(c) => format!(", obstacle clearance {c:.2} m"),
-            None => String::new(),
+        match (
+            obj["min_obstacle_clearance_m"].as_f64(),
+            obj["impact_speed_mps"].as_f64(),
+        ) {
+            (Some(c), Some(v)) => format!(
+                ", obstacle clearance {c:.2} m, first contact at {v:.1} m/s (s = {:.1} m)",
+                num("impact_s_m")
+            ),
+            (Some(c), None) => format!(", obstacle clearance {c:.2} m"),
+            _ => String::new(),
         }
     )
 }

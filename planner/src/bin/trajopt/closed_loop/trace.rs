@@ -9,13 +9,16 @@ pub struct Driven {
     pub rows: Vec<[f64; 6]>,
 }
 
-/// One plan the tracker received: car s on arrival, origin, grid, status, solve time and
-/// node speeds.
+/// One plan the tracker received: car s on arrival, origin, grid, status, kind, solve time
+/// and node speeds.
 pub struct PlanLine {
     pub s_car: f64,
     pub s_origin: f64,
     pub ds: f64,
     pub status: u32,
+    /// Kind sent (`planner::plan::choice::NO_PLAN_CODE`: a notice of no drivable plan,
+    /// whose nodes are no plan).
+    pub kind: u32,
     pub solve_time_s: f64,
     pub v: Vec<f64>,
 }
@@ -46,7 +49,7 @@ pub fn read(dir: &Path) -> Result<(Driven, Vec<PlanLine>), String> {
             s_origin: v[1],
             ds: v[2],
             status: v[3] as u32,
-            // v[4]: the kind sent.
+            kind: v[4] as u32,
             solve_time_s: v[5],
             // v0..vN, then e0..eN.
             v: v[6..6 + (v.len() - 6) / 2].to_vec(),

@@ -20,7 +20,6 @@ use crate::elog;
 use crate::estimator::Estimator;
 use crate::kinds::KindCounts;
 use crate::mismatch::Mismatch;
-use crate::msg::PlanKind;
 use crate::msg::{new_run_id, Trajectory, VehicleState, FLAG_RUNNING, FLAG_STALE, FLAG_STOPPED};
 use crate::plant::car::Car;
 use crate::road::Scenario;
@@ -432,21 +431,19 @@ impl TrackerLoop {
             if !matches!(m.status, 0 | 1) && !m.is_no_plan() {
                 self.plans_not_converged += 1;
             }
-            let among_obstacles = !self.sc.road.obstacles().is_empty();
-            if m.is_no_plan() && !among_obstacles {
-                // On a closed road the tracker holds its plan (or keeps waiting for a
-                // first one) and brakes once that plan is stale.
-                continue;
-            }
-            if (m.is_no_plan() || m.kind == PlanKind::PreviousShifted.code()) && among_obstacles {
-                // Among obstacles, a cycle that found no drivable plan ends the drive: the
-                // car brakes to a stop in its lane instead of driving an old plan on. With
-                // no plan yet the car is already moving at its start state, so the drive
-                // starts braking.
+            if m.is_no_plan() {
+                if self.sc.road.obstacles().is_empty() {
+                    // On a closed road the tracker holds its plan (or keeps waiting for a
+                    // first one) and brakes once that plan is stale.
+                    continue;
+                }
+                // Among obstacles, a cycle with nothing drivable (no plan of its own, no
+                // previous plan to shift) ends the drive: the car brakes to a stop in its
+                // lane at the grip limit. With no plan yet the car is already moving at its
+                // start state, so the drive starts braking.
                 if !self.no_feasible_plan {
                     elog!(
-                        "tracker: {} {} ended with status {} and no drivable plan; braking to a stop in the lane",
-                        if m.is_no_plan() { "cycle of notice" } else { "plan" },
+                        "tracker: cycle {} ended with status {} and no drivable plan; braking to a stop in the lane",
                         m.seq,
                         crate::msg::status_name(m.status).unwrap_or("?")
                     );

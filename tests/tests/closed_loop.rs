@@ -243,19 +243,17 @@ fn one_lap_of_a_track_across_the_lap_end_is_completed_in_the_lane() {
     assert!(png, "the lap figure is written");
 }
 
-/// The forgiving emergency swerve driven from 25 m/s: the planner replans around the two
-/// obstacles fixed on the road and the car's footprint clears both.
-#[test]
-fn the_forgiving_swerve_driven_clears_both_obstacles() {
-    let _serial = serial();
-    let dir = std::env::temp_dir().join(format!("e2e-swerve-{}", std::process::id()));
+/// One emergency swerve `segment` of collision_avoidance.toml driven from 25 m/s with tire
+/// saturation on, its figures in a temporary folder (removed).
+fn run_swerve(segment: &str) -> serde_json::Value {
+    let dir = std::env::temp_dir().join(format!("e2e-swerve-{segment}-{}", std::process::id()));
     let v = run_closed_loop(
         0.0,
         &[
             "--scenario",
             "config/scenarios/collision_avoidance.toml",
             "--segment",
-            "forgiving",
+            segment,
             "--tire-saturation",
             "on",
             "--out-dir",
@@ -263,9 +261,19 @@ fn the_forgiving_swerve_driven_clears_both_obstacles() {
         ],
     );
     let _ = std::fs::remove_dir_all(&dir);
+    v
+}
+
+/// The forgiving emergency swerve driven from 25 m/s: the planner replans around the two
+/// obstacles fixed on the road and the car's footprint clears both.
+#[test]
+fn the_forgiving_swerve_driven_clears_both_obstacles() {
+    let _serial = serial();
+    let v = run_swerve("forgiving");
     assert_eq!(v["start_state"], "scenario", "{v}");
     assert_eq!(v["obstacles_cleared"], true, "{v}");
     assert!(v["min_obstacle_clearance_m"].as_f64().unwrap() > 0.0, "{v}");
+    assert!(v["impact_speed_mps"].is_null(), "{v}");
     assert_eq!(v["outcome"], "cleared", "{v}");
 }
 
@@ -276,21 +284,7 @@ fn the_forgiving_swerve_driven_clears_both_obstacles() {
 #[test]
 fn the_infeasible_swerve_brakes_in_lane_and_reports_the_contact() {
     let _serial = serial();
-    let dir = std::env::temp_dir().join(format!("e2e-swerve-crit-{}", std::process::id()));
-    let v = run_closed_loop(
-        0.0,
-        &[
-            "--scenario",
-            "config/scenarios/collision_avoidance.toml",
-            "--segment",
-            "critical",
-            "--tire-saturation",
-            "on",
-            "--out-dir",
-            &dir.to_string_lossy(),
-        ],
-    );
-    let _ = std::fs::remove_dir_all(&dir);
+    let v = run_swerve("critical");
     assert_eq!(v["outcome"], "stopped_in_lane_no_feasible_plan", "{v}");
     assert_eq!(v["tracker"]["no_feasible_plan_braking"], true, "{v}");
     assert!(v["no_plan_notices"].as_u64().unwrap() >= 1, "{v}");

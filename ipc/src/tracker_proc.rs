@@ -417,7 +417,6 @@ impl TrackerLoop {
     /// (the planner sends only what it judges drivable: a converged plan, a best iterate
     /// within its violation threshold, or its previous plan shifted to the car).
     fn receive(&mut self, ports: &Ports) -> Result<(), IpcError> {
-        let plant = &self.car.plant;
         while let Some(sample) = ports.sub.receive().map_err(ipc_err("receive trajectory"))? {
             let m: &Trajectory = sample.payload();
             if !self
@@ -426,32 +425,13 @@ impl TrackerLoop {
             {
                 continue;
             }
-            // Notices are logged with the plans (the figures mark their cycles).
-            self.log.plan(m, plant.x[ix::S]);
-            if !matches!(m.status, 0 | 1) && !m.is_no_plan() {
-                self.plans_not_converged += 1;
-            }
             if m.is_no_plan() {
-                if self.sc.road.obstacles().is_empty() {
-                    // On a closed road the tracker holds its plan (or keeps waiting for a
-                    // first one) and brakes once that plan is stale.
-                    continue;
-                }
-                // Among obstacles, a cycle with nothing drivable (no plan of its own, no
-                // previous plan to shift) ends the drive: the car brakes to a stop in its
-                // lane at the grip limit. With no plan yet the car is already moving at its
-                // start state, so the drive starts braking.
-                if !self.no_feasible_plan {
-                    elog!(
-                        "tracker: cycle {} ended with status {} and no drivable plan; braking to a stop in the lane",
-                        m.seq,
-                        crate::msg::status_name(m.status).unwrap_or("?")
-                    );
-                    self.no_feasible_plan = true;
-                    self.e_hold = plant.x[ix::E];
-                }
-                self.sim_start.get_or_insert_with(Instant::now);
+                self.notice(m);
                 continue;
+            }
+            self.log.plan(m, self.car.plant.x[ix::S]);
+            if !matches!(m.status, 0 | 1) {
+                self.plans_not_converged += 1;
             }
             if self.no_feasible_plan {
                 // The car is committed to its stop: later plans are logged, not driven.
@@ -461,7 +441,7 @@ impl TrackerLoop {
             *self.plan = *m;
             self.have_plan = true;
             self.last_plan_at = Instant::now();
-            if self.stale && !plant.stopped {
+            if self.stale && !self.car.plant.stopped {
                 elog!("tracker: fresh plan {} after stale period; resuming", m.seq);
                 self.stale = false;
             }
@@ -475,6 +455,31 @@ impl TrackerLoop {
             }
         }
         Ok(())
+    }
+
+    /// Takes a notice that the planner's cycle had nothing drivable. The tracker holds the
+    /// plan it has until the plan is stale. Among obstacles, with no plan yet, the drive
+    /// ends in an emergency stop: the car is moving at its start state, so the drive starts
+    /// braking to a stop in its lane and does not resume. Once the car is driving (or among
+    /// obstacles) the notice is logged with the plans, so the figures mark its cycle; a
+    /// closed road's notices before the first plan come from start-up solves of a car that
+    /// is still waiting.
+    fn notice(&mut self, m: &Trajectory) {
+        let among_obstacles = !self.sc.road.obstacles().is_empty();
+        if self.sim_start.is_some() || among_obstacles {
+            self.log.plan(m, self.car.plant.x[ix::S]);
+        }
+        if !among_obstacles || self.have_plan || self.no_feasible_plan {
+            return;
+        }
+        elog!(
+            "tracker: no drivable plan (the planner's cycle ended {}, violation {:.2e}); braking to a stop in the lane",
+            crate::msg::status_name(m.status).unwrap_or("?"),
+            m.max_violation
+        );
+        self.no_feasible_plan = true;
+        self.e_hold = self.measured[ix::E];
+        self.sim_start.get_or_insert_with(Instant::now);
     }
 
     /// Advances the simulation to the wall clock `now` (bounded: at most 1 s of sim per
@@ -533,7 +538,7 @@ impl TrackerLoop {
                     self.e_hold = r.x[ix::E];
                     u
                 }
-                None if self.no_feasible_plan => brake_to_stop(
+                None if self.no_feasible_plan || !road.obstacles().is_empty() => brake_to_stop(
                     &params,
                     &self.gains.emergency_stop(&params),
                     &y,

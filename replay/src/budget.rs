@@ -152,7 +152,8 @@ pub struct SentCounts {
     pub sent_best_iterate: usize,
     /// Previous plans shifted to the car.
     pub sent_previous_shifted: usize,
-    /// Cycles that sent nothing (no drivable plan, no usable previous one).
+    /// Cycles that sent no plan (no drivable plan, no usable previous one; the planner
+    /// process sends the notice of no drivable plan there).
     pub sent_nothing: usize,
 }
 
@@ -214,7 +215,7 @@ mod tests {
         let mut sent = SentPlans::default();
         let xs = plan();
         let bad = info(Status::TimeLimit, 1.0);
-        // Nothing sent yet: a failed solve sends nothing.
+        // Nothing sent yet: a failed solve sends no plan.
         assert_eq!(sent.decide(&bad, 0, &xs), None);
         assert_eq!(
             sent.decide(&info(Status::Optimal, 0.0), 0, &xs),

@@ -124,6 +124,10 @@ fn run(cli: &Cli) -> Result<serde_json::Value, Error> {
             .receive()
             .map_err(ipc::services::ipc_err("receive trajectory"))?
         {
+            if s.payload().is_no_plan() {
+                // A notice that a cycle had nothing drivable: not a plan.
+                continue;
+            }
             if s.payload().from_run_id == run_id {
                 from.push(s.payload().from_state_seq);
             } else {

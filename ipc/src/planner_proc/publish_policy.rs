@@ -143,7 +143,8 @@ pub struct Policy {
     pub previous: PreviousPlan,
     /// Plans sent, by kind.
     pub sent: KindCounts,
-    /// Cycles that solved but sent nothing (no usable previous plan).
+    /// Cycles that solved but sent no plan (no usable previous plan): each sent the notice
+    /// of no drivable plan instead.
     pub not_sent: u64,
 }
 
@@ -253,7 +254,7 @@ mod tests {
             max_violation: 0.5,
             ..capped(Status::TimeLimit)
         };
-        // No previous plan: nothing is sent.
+        // No previous plan: no plan is sent (the process sends its notice).
         assert_eq!(policy.decide(Some(&failed), 0.0, 1, ds), None);
         policy.previous.store(&xs, &us, 0.0, 1, 1e-8, 0);
         assert_eq!(

@@ -47,8 +47,8 @@ pub const DRIVABLE_VIOLATION: f64 = 1e-2;
 /// its horizon from its origin (32.5 m on the oval's 260 m horizon, about 2 s of
 /// driving). A plan driven that long without a new start at the measured state drifts
 /// from the car (its discretization against the plant, the start state it was planned
-/// from); past the cap the cycle sends nothing and the tracker brakes once its plan is
-/// stale.
+/// from); past the cap the cycle sends no plan (the planner process sends the notice that it
+/// has none) and the tracker brakes once its plan is stale.
 pub const PREVIOUS_MAX_SHIFT_FRACTION: f64 = 0.125;
 
 /// What kind of plan a cycle sends.

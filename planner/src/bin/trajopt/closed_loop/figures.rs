@@ -162,7 +162,7 @@ fn draw_lap(
             .map_or(0.0, |r| r[2])
     };
     for p in plans {
-        let colour = if p.status > 1 {
+        let colour = if p.status > 1 || notice(p) {
             RED
         } else if p.solve_time_s > period_s {
             RGBColor(255, 140, 0)

@@ -34,6 +34,7 @@ bench/external/requirements.txt. Run from the repository root:
     .venv/bin/python bench/external/lap_reference.py --tracks Austin,Budapest,Montreal,Silverstone,Spa,oval
     .venv/bin/python bench/external/lap_reference.py --tracks Montreal --spacing 1.25 --no-write
     .venv/bin/python bench/external/lap_reference.py --check
+    .venv/bin/python bench/external/lap_reference.py --mismatch default --tracks Austin   # the plant's car
     .venv/bin/python bench/external/lap_reference.py --compare-segments
     .venv/bin/python bench/external/lap_reference.py --segments S02,S10 --integrator ie --steering-slew-weight 0
 It merges one [[tracks]] entry per (track, edge margin) into config/reference/lap_times.toml
@@ -79,6 +80,10 @@ def parse_args(argv=None):
                     help="scale the friction and the brake torque limits (trajopt closed-loop --friction-scale)")
     ap.add_argument("--v-max-mps", type=float, default=None,
                     help="speed cap instead of the scenario's (trajopt closed-loop --track-v-max-mps)")
+    ap.add_argument("--mismatch", default=None,
+                    help="the tracker plant's car: 'default' (config/mismatch/default.toml) or a mismatch "
+                         "file, its [vehicle] changes applied as ipc::mismatch::Mismatch::apply does "
+                         "(trajopt closed-loop --mismatch); printed only")
     ap.add_argument("--max-iter", type=int, default=3000)
     ap.add_argument("--print-level", type=int, default=0, help="IPOPT print_level")
     ap.add_argument("--out", default="config/reference", help="folder of lap_times.toml and the speed CSVs")
@@ -555,6 +560,24 @@ def solve_segments(args, p):
               f"segments_ie_ipopt.csv {tn:.4f} s ({res['lap_time_s'] / tn - 1:+.2%})", flush=True)
 
 
+def apply_mismatch(p, path):
+    """The plant's car of a mismatch file (ipc/src/mismatch.rs `Mismatch::apply`): mu, m,
+    I_z, C_f and C_r changed by the file's [vehicle] relative values, the nominal axle loads
+    following the mass. The actuator lag, delay and noise act on the controls and the
+    measurement, not on the car's limits, and are left out."""
+    if path == "default":
+        path = "config/mismatch/default.toml"
+    with open(path, "rb") as f:
+        v = tomllib.load(f)["vehicle"]
+    p.mu *= 1.0 + v["friction"]
+    p.m *= 1.0 + v["mass"]
+    p.i_z *= 1.0 + v["yaw_inertia"]
+    p.c_f *= 1.0 + v["cornering_stiffness"]
+    p.c_r *= 1.0 + v["cornering_stiffness"]
+    p.fz_f = p.m * p.g * p.b / p.l
+    p.fz_r = p.m * p.g * p.a / p.l
+
+
 def main():
     args = parse_args()
     if args.compare_segments:
@@ -566,8 +589,11 @@ def main():
     p.mu *= args.friction_scale
     p.u_lo[1] *= args.friction_scale
     p.u_lo[2] *= args.friction_scale
-    if args.friction_scale != 1.0 or args.v_max_mps is not None:
-        # lap_times.toml holds the car's own limits; a run with the planner's is printed only.
+    if args.mismatch is not None:
+        apply_mismatch(p, args.mismatch)
+    if args.friction_scale != 1.0 or args.v_max_mps is not None or args.mismatch is not None:
+        # lap_times.toml holds the car's own limits; a run with the planner's or the
+        # plant's is printed only.
         args.no_write = True
     if args.check:
         check(p)

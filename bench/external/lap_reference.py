@@ -34,7 +34,7 @@ bench/external/requirements.txt. Run from the repository root:
     .venv/bin/python bench/external/lap_reference.py --tracks Austin,Budapest,Montreal,Silverstone,Spa,oval
     .venv/bin/python bench/external/lap_reference.py --tracks Montreal --spacing 1.25 --no-write
     .venv/bin/python bench/external/lap_reference.py --check
-    .venv/bin/python bench/external/lap_reference.py --mismatch default --tracks Austin   # the plant's car
+    .venv/bin/python bench/external/lap_reference.py --mismatch default --tracks Austin,Budapest,Montreal,Silverstone,Spa
     .venv/bin/python bench/external/lap_reference.py --compare-segments
     .venv/bin/python bench/external/lap_reference.py --segments S02,S10 --integrator ie --steering-slew-weight 0
 It merges one [[tracks]] entry per (track, edge margin) into config/reference/lap_times.toml
@@ -83,7 +83,7 @@ def parse_args(argv=None):
     ap.add_argument("--mismatch", default=None,
                     help="the tracker plant's car: 'default' (config/mismatch/default.toml) or a mismatch "
                          "file, its [vehicle] changes applied as ipc::mismatch::Mismatch::apply does "
-                         "(trajopt closed-loop --mismatch); printed only")
+                         "(trajopt closed-loop --mismatch); written to lap_times_plant_<file stem>.toml")
     ap.add_argument("--max-iter", type=int, default=3000)
     ap.add_argument("--print-level", type=int, default=0, help="IPOPT print_level")
     ap.add_argument("--out", default="config/reference", help="folder of lap_times.toml and the speed CSVs")
@@ -425,6 +425,17 @@ HEADER = """\
 # solve_s is wall time on the machine that wrote the entry, for orientation only.
 """
 
+PLANT_HEADER = """\
+# Minimum lap times of the tracker plant's car under the mismatch file {mismatch} (its
+# [vehicle] changes applied to config/vehicles/lc500.toml as ipc::mismatch::Mismatch::apply
+# does): the reference of a closed-loop lap driven with that mismatch, since it is the car
+# the loop drives. Written by bench/external/lap_reference.py --mismatch, with the method of
+# lap_times.toml (docs/lap-reference.md, "The plant's car"). Regenerate from the repo root:
+#   .venv/bin/python bench/external/lap_reference.py --mismatch default --tracks Austin,Budapest,Montreal,Silverstone,Spa,oval
+# lap_time_s is t_N (the slew term is not included; slew_term_s is its value).
+# solve_s is wall time on the machine that wrote the entry, for orientation only.
+"""
+
 FIELDS = ["name", "lap_time_s", "lap_length_m", "edge_margin_m", "node_spacing_m", "n_nodes", "integrator",
           "steering_slew_weight", "slew_term_s", "status", "iterations", "max_abs_beta_rad", "v_min_mps",
           "v_max_mps", "periodic_residual", "max_violation", "solve_s", "script_version", "script_commit",
@@ -457,7 +468,23 @@ def entry_of(res, args):
 
 def speed_csv_name(res, args):
     suffix = "" if args.edge_margin_m == 1.0 else f"_margin{args.edge_margin_m:g}"
-    return f"{res['name']}{suffix}_lap_speed.csv"
+    return f"{res['name']}{suffix}{plant_suffix(args)}_lap_speed.csv"
+
+
+def plant_suffix(args):
+    """'' for the planner's car, '_plant_<stem>' for a mismatch file's plant car."""
+    if args.mismatch is None:
+        return ""
+    return "_plant_" + os.path.splitext(os.path.basename(mismatch_path(args.mismatch)))[0]
+
+
+def mismatch_path(name):
+    return "config/mismatch/default.toml" if name == "default" else name
+
+
+def times_file(args):
+    """lap_times.toml, or lap_times_plant_<stem>.toml for a mismatch file's plant car."""
+    return os.path.join(args.out, f"lap_times{plant_suffix(args)}.toml")
 
 
 def write_results(res, args):
@@ -468,7 +495,7 @@ def write_results(res, args):
     idx = list(range(0, n, step)) + [n]
     lines = ["s_m,v_mps,e_m,t_s"] + [f"{s[k]:.3f},{x[V, k]:.4f},{x[E, k]:.4f},{x[T, k]:.4f}" for k in idx]
     write_atomic(os.path.join(args.out, speed_csv_name(res, args)), "\n".join(lines) + "\n")
-    path = os.path.join(args.out, "lap_times.toml")
+    path = times_file(args)
     with open(path + ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         entries = load_toml(path).get("tracks", []) if os.path.exists(path) else []
@@ -477,7 +504,7 @@ def write_results(res, args):
         entries.append(new)
         order = {name: i for i, name in enumerate(SHIPPED)}
         entries.sort(key=lambda e: (order.get(e["name"], len(order)), e["name"], -e["edge_margin_m"]))
-        body = [HEADER]
+        body = [HEADER if args.mismatch is None else PLANT_HEADER.format(mismatch=mismatch_path(args.mismatch))]
         for e in entries:
             body.append("\n[[tracks]]\n" + "".join(f"{k} = {toml_value(e[k])}\n" for k in FIELDS if k in e))
         write_atomic(path, "".join(body))
@@ -565,9 +592,7 @@ def apply_mismatch(p, path):
     I_z, C_f and C_r changed by the file's [vehicle] relative values, the nominal axle loads
     following the mass. The actuator lag, delay and noise act on the controls and the
     measurement, not on the car's limits, and are left out."""
-    if path == "default":
-        path = "config/mismatch/default.toml"
-    with open(path, "rb") as f:
+    with open(mismatch_path(path), "rb") as f:
         v = tomllib.load(f)["vehicle"]
     p.mu *= 1.0 + v["friction"]
     p.m *= 1.0 + v["mass"]
@@ -591,9 +616,9 @@ def main():
     p.u_lo[2] *= args.friction_scale
     if args.mismatch is not None:
         apply_mismatch(p, args.mismatch)
-    if args.friction_scale != 1.0 or args.v_max_mps is not None or args.mismatch is not None:
-        # lap_times.toml holds the car's own limits; a run with the planner's or the
-        # plant's is printed only.
+    if args.friction_scale != 1.0 or args.v_max_mps is not None:
+        # The written references hold the car's own limits; a run with the planner's is
+        # printed only. A plant's car goes to its own file (times_file).
         args.no_write = True
     if args.check:
         check(p)

@@ -93,8 +93,8 @@ fn closed_loop_oval_lap_keeps_lane_and_tracks_plan() {
 /// mass +5 %, yaw inertia +10 %, cornering stiffness -10 %, 50 ms steering lag, 20 ms
 /// delay, noisy measured state) the oval lap keeps the lane and stays within 0.6 m of the
 /// plan (0.1 m more than without mismatch: a noisy start near the edge can cost the
-/// planner a slow solve), and the summary names the mismatch and the tracker reports the
-/// values it used.
+/// planner a slow solve), the summary names the mismatch and the plant's own minimum lap,
+/// and the tracker reports the values it used.
 #[test]
 fn closed_loop_oval_lap_with_the_default_mismatch_keeps_lane() {
     let _serial = serial();
@@ -108,6 +108,13 @@ fn closed_loop_oval_lap_with_the_default_mismatch_keeps_lane() {
         "{v}"
     );
     assert_eq!(used["noise"]["e_m"].as_f64(), Some(0.05), "{v}");
+    // The lap is judged against the car it drives: the plant's car, with less grip and
+    // more mass, laps slower than the planner's.
+    let (plant, own) = (
+        v["plant_reference_lap_time_s"].as_f64().unwrap(),
+        v["reference_lap_time_s"].as_f64().unwrap(),
+    );
+    assert!(plant > own && plant < 1.1 * own, "{v}");
     assert!(
         v["laps_or_distance_m"].as_f64().unwrap_or(0.0) > 250.0,
         "{v}"

@@ -100,7 +100,26 @@ pub fn extend(args: &ClosedLoopArgs, map: &RoadMap, trace_dir: &Path, obj: &mut 
         "reference_edge_margin_m".into(),
         reference.map_or(Value::Null, |r| json!(r.1)),
     );
+    o.insert(
+        "plant_reference_lap_time_s".into(),
+        plant_reference(&t, &name).map_or(Value::Null, |r| json!(r.0)),
+    );
     o.insert("figures".into(), figures);
+}
+
+/// The minimum lap \[s\] and edge margin \[m\] of the car the loop drives when that is not
+/// the planner's: under the shipped `default` mismatch with the planner's vehicle file, the
+/// entry of `config/reference/lap_times_plant_default.toml` (docs/lap-reference.md, "The
+/// plant's car"). `None` without a mismatch, for a user's mismatch or plant vehicle file,
+/// or for a track without an entry.
+fn plant_reference(tracker: &Value, track: &str) -> Option<(f64, f64)> {
+    if tracker["mismatch"].as_str() != Some("default") || !tracker["plant_vehicle"].is_null() {
+        return None;
+    }
+    trace::reference_lap(
+        &resolve(Path::new("config/reference/lap_times_plant_default.toml")),
+        track,
+    )
 }
 
 /// The second line of the human summary: laps against the reference, margins, outcome.
@@ -120,6 +139,10 @@ pub fn text(obj: &Value) -> String {
             obj["reference_edge_margin_m"]
         ),
         None => "no reference".to_string(),
+    };
+    let reference = match obj["plant_reference_lap_time_s"].as_f64() {
+        Some(r) => format!("{reference}, the plant's car {r:.2} s"),
+        None => reference,
     };
     let num = |k: &str| obj[k].as_f64().unwrap_or(f64::NAN);
     format!(

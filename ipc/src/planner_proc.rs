@@ -228,8 +228,6 @@ struct PlannerLoop {
     outside: u64,
     states_received: u64,
     published: u64,
-    /// Notices sent that a cycle had no drivable plan.
-    notices: u64,
     /// True once the start-up budget has ended (see `send::record_cycle_time`).
     startup_over: bool,
     warm: u64,
@@ -389,7 +387,6 @@ impl PlannerLoop {
             outside: 0,
             states_received: 0,
             published: 0,
-            notices: 0,
             startup_over: false,
             warm: 0,
             cold: 0,

@@ -291,7 +291,9 @@ impl Ports {
 /// plan, the stale/stopped state and the statistics of the final report.
 struct TrackerLoop {
     sc: Scenario,
-    gains: Gains,
+    /// Gains of the stop without a plan: among obstacles the emergency stop
+    /// ([`Gains::emergency_stop`]), else the comfort stop of a stale plan.
+    stop_gains: Gains,
     distance: f64,
     substeps: usize,
     plant_dt: f64,
@@ -377,11 +379,16 @@ impl TrackerLoop {
             steering_lag_s: mismatch.actuator.steering_lag_s,
             delay_steps: car.delay_steps(),
         };
+        let stop_gains = if sc.road.obstacles().is_empty() {
+            Gains::default()
+        } else {
+            Gains::default().emergency_stop(&sc.spec.vehicle)
+        };
         let controller = Controller::new(&sc.spec.vehicle, args.control_dt_s, preview, actuator)
             .map_err(TrackerProcError::Setup)?;
         Ok(Self {
             sc,
-            gains: Gains::default(),
+            stop_gains,
             distance,
             substeps,
             plant_dt,
@@ -491,7 +498,6 @@ impl TrackerLoop {
         let car = &mut self.car;
         let stats = &mut self.stats;
         if !self.stale
-            && !self.no_feasible_plan
             && self.have_plan
             && now.duration_since(self.last_plan_at).as_secs_f64() > args.stale_after_s
         {
@@ -538,14 +544,7 @@ impl TrackerLoop {
                     self.e_hold = r.x[ix::E];
                     u
                 }
-                None if self.no_feasible_plan || !road.obstacles().is_empty() => brake_to_stop(
-                    &params,
-                    &self.gains.emergency_stop(&params),
-                    &y,
-                    road,
-                    self.e_hold,
-                ),
-                None => brake_to_stop(&params, &self.gains, &y, road, self.e_hold),
+                None => brake_to_stop(&params, &self.stop_gains, &y, road, self.e_hold),
             };
             self.controller.applied(u[iu::DELTA]);
             car.drive(u, road, self.substeps, self.plant_dt);

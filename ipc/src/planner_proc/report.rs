@@ -18,7 +18,7 @@ impl PlannerLoop {
         let rejected = self.rejected;
         elog!(
             "planner: stopping after {published} plans ({warm} warm, {cold} equilibrium starts, {failed} not converged, {} notices of no drivable plan), {} states dropped, {outside} outside the planner's domain",
-            self.notices,
+            self.policy.not_sent,
             rejected.total()
         );
         let recording = match (self.recorder, &args.record) {
@@ -42,7 +42,8 @@ impl PlannerLoop {
             "budget_ms": self.budget_ms,
             "first_budget_ms": self.first_budget_ms,
             "cycles_not_published": self.policy.not_sent,
-            "no_plan_notices": self.notices,
+            // Every cycle that sends no plan sends the notice instead.
+            "no_plan_notices": self.policy.not_sent,
             "first_cycle_ms": self.first_cycle_ms,
             "plans_published": published,
             "warm_starts": warm,

@@ -72,7 +72,6 @@ impl PlannerLoop {
         let origin = (solved.s_track, state.x[ix::T]);
         self.write_sample(ports, state, solved, (KIND_NO_PLAN, 0, viol, origin))?;
         self.record_cycle_time(solved, among_obstacles);
-        self.notices += 1;
         Ok(())
     }
 

@@ -98,6 +98,11 @@ impl Cycle {
     }
 }
 
+/// The least time a cycle's solve is given [s]: a cycle that spent its budget before the
+/// solve still runs the solver's start, which ends `time_limit` at once with the start
+/// as its best iterate (so the cycle sends the previous plan shifted or the notice).
+const MIN_SOLVE_S: f64 = 1e-6;
+
 /// The options of a warm-started replan falling back to `cold`.
 fn warm_options(cold: GuessKind) -> WarmOptions {
     WarmOptions {
@@ -234,6 +239,8 @@ struct PlannerLoop {
     cold: u64,
     failed: u64,
     cycle_lat: Latency,
+    /// Steady cycles that ended past the budget plus [`send::OVERRUN_ALLOWANCE_MS`].
+    past_budget: u64,
     state_ipc_lat: Latency,
 }
 
@@ -392,6 +399,7 @@ impl PlannerLoop {
             cold: 0,
             failed: 0,
             cycle_lat: Latency::new(),
+            past_budget: 0,
             state_ipc_lat: Latency::new(),
         })
     }
@@ -439,6 +447,7 @@ impl PlannerLoop {
         let relaxed = self.cy.relaxed.as_ref().is_some_and(|r| r.active());
         self.cy.set_relaxed(relaxed);
         let x0 = self.start_state(state)?;
+        self.budget_from(t0);
         let (info, start) = match self.solve(state, x0, s_track) {
             Some((info, start)) => (Some(info), start),
             None => (None, Start::Cold),
@@ -462,6 +471,25 @@ impl PlannerLoop {
             t0,
             solve_time_s,
         })
+    }
+
+    /// Gives this cycle's solve what is left of the cycle's budget (the start-up budget
+    /// until the first plan is out) after the work since `t0`, the cycle's start: the
+    /// budget bounds the cycle, not only the solve, so time lost before the solve (the
+    /// road window, the warm start's shift, or the machine) comes out of the solve.
+    /// Allocates nothing.
+    fn budget_from(&mut self, t0: Instant) {
+        let budget_ms = if self.startup_over {
+            self.budget_ms
+        } else {
+            self.first_budget_ms
+        };
+        let left_s = budget_ms * 1e-3 - t0.elapsed().as_secs_f64();
+        let mut settings = *self.cy.planner.solver().settings();
+        settings.max_time_s = left_s.max(MIN_SOLVE_S);
+        if let Err(e) = self.cy.planner.solver_mut().set_settings(settings) {
+            elog!("planner: cannot set the cycle's budget: {e}");
+        }
     }
 
     /// Samples the road window at `state` and returns the start state to plan from:

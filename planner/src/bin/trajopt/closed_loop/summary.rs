@@ -87,7 +87,12 @@ pub fn extend(args: &ClosedLoopArgs, map: &RoadMap, trace_dir: &Path, obj: &mut 
     o.insert("plans_not_converged".into(), pf("not_converged"));
     o.insert("no_plan_notices".into(), pf("no_plan_notices"));
     o.insert("deadline_misses".into(), deadline_misses);
-    for k in ["cycle_ms_p50", "cycle_ms_p99", "cycle_ms_max"] {
+    for k in [
+        "cycle_ms_p50",
+        "cycle_ms_p99",
+        "cycle_ms_max",
+        "cycles_past_budget",
+    ] {
         o.insert(k.into(), pf(k));
     }
     let mismatch = t.get("mismatch").cloned().unwrap_or(json!("none"));

@@ -412,6 +412,51 @@ mod brake_tests {
 }
 
 #[cfg(test)]
+mod stop_tests {
+    use super::*;
+    use crate::plant::Plant;
+    use crate::road::Scenario;
+
+    /// The emergency stop on a straight delivers what it commands to the model's car (no
+    /// actuator lag): from 25 m/s the deceleration over the stop averages within 5 % of
+    /// 0.8 mu g, the front brake inside its torque limit.
+    #[test]
+    fn an_emergency_stop_from_25_mps_decelerates_as_commanded() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let sc = Scenario::load(
+            &root.join("config/scenarios/oval.toml"),
+            &root.join("config/vehicles/lc500.toml"),
+            &root.join("config/solver.toml"),
+        )
+        .expect("oval scenario");
+        let p = sc.spec.vehicle;
+        let g = Gains::default().emergency_stop(&p);
+        let dt = 0.00025;
+        // The oval's first 50 m are straight; the stop from 25 m/s at 0.8 mu g takes 40 m.
+        let mut plant = Plant::cruise(p, 25.0);
+        let (mut t, mut steps) = (0.0, 0);
+        while !plant.stopped && steps < 400_000 {
+            let u = brake_to_stop(&p, &g, &plant.x, &sc.road, 0.0);
+            assert!(
+                u[iu::TBF] >= p.t_bf_min - 1e-9,
+                "front torque {}",
+                u[iu::TBF]
+            );
+            plant.step(u, &sc.road, dt);
+            t += dt;
+            steps += 1;
+        }
+        assert!(plant.stopped, "not stopped");
+        let avg = 25.0 / t;
+        let want = 0.8 * p.mu * p.g;
+        assert!(
+            (avg - want).abs() < 0.05 * want,
+            "average deceleration {avg:.2} m/s^2 against {want:.2} commanded"
+        );
+    }
+}
+
+#[cfg(test)]
 mod error_tests {
     use super::*;
 

@@ -370,19 +370,24 @@ mod brake_tests {
     use crate::plant::Plant;
     use crate::road::Scenario;
 
+    /// The shipped oval with the shipped vehicle and solver files.
+    fn oval() -> Scenario {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        Scenario::load(
+            &root.join("config/scenarios/oval.toml"),
+            &root.join("config/vehicles/lc500.toml"),
+            &root.join("config/solver.toml"),
+        )
+        .expect("oval scenario")
+    }
+
     /// Braking to a stop from a straight-line cruise at several points of the oval
     /// (straights, curve entries, curves) stops the car inside the lane (+-4 m, 1 m to
     /// spare), for every speed the curve allows (V^2 kappa <= mu g). Without rear slip
     /// control the car spun out of the lane at curve entry.
     #[test]
     fn brake_to_stop_keeps_the_lane() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let sc = Scenario::load(
-            &root.join("config/scenarios/oval.toml"),
-            &root.join("config/vehicles/lc500.toml"),
-            &root.join("config/solver.toml"),
-        )
-        .expect("oval scenario");
+        let sc = oval();
         let g = Gains::default();
         let dt = 0.00025;
         for s0 in [
@@ -409,32 +414,19 @@ mod brake_tests {
             }
         }
     }
-}
-
-#[cfg(test)]
-mod stop_tests {
-    use super::*;
-    use crate::plant::Plant;
-    use crate::road::Scenario;
 
     /// The emergency stop on a straight delivers what it commands to the model's car (no
     /// actuator lag): from 25 m/s the deceleration over the stop averages within 5 % of
     /// 0.8 mu g, the front brake inside its torque limit.
     #[test]
     fn an_emergency_stop_from_25_mps_decelerates_as_commanded() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let sc = Scenario::load(
-            &root.join("config/scenarios/oval.toml"),
-            &root.join("config/vehicles/lc500.toml"),
-            &root.join("config/solver.toml"),
-        )
-        .expect("oval scenario");
+        let sc = oval();
         let p = sc.spec.vehicle;
         let g = Gains::default().emergency_stop(&p);
         let dt = 0.00025;
         // The oval's first 50 m are straight; the stop from 25 m/s at 0.8 mu g takes 40 m.
         let mut plant = Plant::cruise(p, 25.0);
-        let (mut t, mut steps) = (0.0, 0);
+        let mut steps = 0;
         while !plant.stopped && steps < 400_000 {
             let u = brake_to_stop(&p, &g, &plant.x, &sc.road, 0.0);
             assert!(
@@ -443,11 +435,10 @@ mod stop_tests {
                 u[iu::TBF]
             );
             plant.step(u, &sc.road, dt);
-            t += dt;
             steps += 1;
         }
         assert!(plant.stopped, "not stopped");
-        let avg = 25.0 / t;
+        let avg = 25.0 / (steps as f64 * dt);
         let want = 0.8 * p.mu * p.g;
         assert!(
             (avg - want).abs() < 0.05 * want,

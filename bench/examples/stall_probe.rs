@@ -5,6 +5,7 @@
 //! cycle-time figure measured here. Usage: stall_probe [C ms, default 10] [K, default 300]
 
 use std::hint::black_box;
+use std::io::Write;
 use std::time::{Duration, Instant};
 
 /// One unit of work: a thousand dependent floating-point additions.
@@ -18,11 +19,27 @@ fn unit(acc: f64) -> f64 {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let chunk_ms: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0);
-    let count: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(300);
-    if !(chunk_ms > 0.0 && chunk_ms < 100.0) || count == 0 {
-        eprintln!("stall_probe: the chunk must be in (0, 100) ms and the count at least 1");
-        std::process::exit(2);
+    let refuse = |what: &str| -> ! {
+        eprintln!("stall_probe: {what} (usage: stall_probe [C ms in (0, 100)] [K >= 1])");
+        std::process::exit(2)
+    };
+    let chunk_ms: f64 = match args.get(1) {
+        None => 10.0,
+        Some(a) => a
+            .parse()
+            .unwrap_or_else(|_| refuse(&format!("the chunk {a:?} is not a number"))),
+    };
+    let count: usize = match args.get(2) {
+        None => 300,
+        Some(a) => a
+            .parse()
+            .unwrap_or_else(|_| refuse(&format!("the count {a:?} is not a whole number"))),
+    };
+    if !(chunk_ms > 0.0 && chunk_ms < 100.0) {
+        refuse(&format!("the chunk {chunk_ms} ms is not in (0, 100) ms"));
+    }
+    if count == 0 {
+        refuse("the count must be at least 1");
     }
     // Calibrate: units that take chunk_ms, the median of five tries.
     let mut acc = 0.0;
@@ -55,7 +72,9 @@ fn main() {
     sorted.sort_by(f64::total_cmp);
     let q = |p: f64| sorted[((sorted.len() - 1) as f64 * p).round() as usize];
     let over = |d: f64| times.iter().filter(|&&t| t > chunk_ms + d).count();
-    println!(
+    // A closed stdout ends the probe quietly instead of panicking.
+    let _ = writeln!(
+        std::io::stdout(),
         "chunk {chunk_ms} ms x {count}: p50 {:.2} p99 {:.2} max {:.2} ms; over +2 ms: {}, over +5 ms: {}",
         q(0.5),
         q(0.99),

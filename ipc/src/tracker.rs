@@ -1,11 +1,14 @@
 //! Trajectory tracking: the planned controls, looked up by arc length, as feed-forward,
 //! plus feedback on lateral error, heading and yaw rate (steering) and speed (torque);
-//! and which plans a tracker may follow at all ([`Ownership`]).
+//! and which plans a tracker may follow at all ([`Ownership`]); braking to a stop without a
+//! plan is [`stop`].
 
 use planner::model::{iu, ix, VehicleParams, NU, NX};
 
 use crate::msg::{RunId, Trajectory, HORIZON_N};
-use crate::road::ClosedRoad;
+
+pub mod stop;
+pub use stop::brake_to_stop;
 
 /// Why a valid plan is not the tracker's own (it is counted and not followed).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -230,53 +233,6 @@ pub fn track(p: &VehicleParams, g: &Gains, x: &[f64; NX], r: &Reference) -> ([f6
     (u, err)
 }
 
-/// Deceleration for braking to a stop [m/s^2]: at least `stop_decel`, more when a curve
-/// ahead must be entered slower (looked ahead to the stopping distance), and at most what
-/// the friction circle leaves next to the current curve's lateral acceleration.
-fn stop_decel(p: &VehicleParams, g: &Gains, x: &[f64; NX], road: &ClosedRoad, kappa: f64) -> f64 {
-    let a_grip = 0.8 * p.mu * p.g;
-    let v2 = x[ix::V] * x[ix::V];
-    let mut need = g.stop_decel;
-    let reach = (v2 / (2.0 * g.stop_decel)).min(200.0);
-    let mut d = 1.0;
-    while d <= reach {
-        let k = road.kappa(x[ix::S] + d).abs();
-        // Enter a curve with half the grip left for braking in it.
-        let v_c2 = 0.75 * a_grip / k.max(1e-9);
-        if v2 > v_c2 {
-            need = need.max((v2 - v_c2) / (2.0 * d));
-        }
-        d += 1.0;
-    }
-    let a_lat = v2 * kappa.abs();
-    let avail = (a_grip * a_grip - a_lat * a_lat).max(0.0).sqrt();
-    need.min(avail.max(1.0)).min(a_grip)
-}
-
-/// Braking to a stop along the road when there is no usable plan: kinematic steering for
-/// the road curvature, feedback to `e_hold` and zero heading error, and `stop_decel`
-/// split over both axles with rear wheel-slip control. Allocates nothing.
-pub fn brake_to_stop(
-    p: &VehicleParams,
-    g: &Gains,
-    x: &[f64; NX],
-    road: &ClosedRoad,
-    e_hold: f64,
-) -> [f64; NU] {
-    let kappa = road.kappa(x[ix::S]);
-    let delta = p.l * kappa
-        - g.k_e * (x[ix::E] - e_hold)
-        - g.k_dpsi * x[ix::DPSI]
-        - g.k_r * (x[ix::R] - kappa * x[ix::V]);
-    let torque = stop_decel(p, g, x, road, kappa) * p.m * p.r_w;
-    // Front axle carries b / L of the static load.
-    let front = (p.b / p.l).clamp(0.0, 1.0);
-    // Rear wheel-slip control around free rolling (as in `track`): without it the braked
-    // rear wheel locks in a curve, the rear loses its side force and the car spins.
-    let slip = g.k_w * (x[ix::VWR] - x[ix::V]);
-    [delta, -(1.0 - front) * torque - slip, -front * torque]
-}
-
 #[cfg(test)]
 mod ownership_tests {
     use super::*;
@@ -361,89 +317,6 @@ mod ownership_tests {
             o.check(&plan_from(0, 1)),
             Err(Foreign::RunId { .. })
         ));
-    }
-}
-
-#[cfg(test)]
-mod brake_tests {
-    use super::*;
-    use crate::plant::Plant;
-    use crate::road::Scenario;
-
-    /// The shipped oval with the shipped vehicle and solver files.
-    fn oval() -> Scenario {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        Scenario::load(
-            &root.join("config/scenarios/oval.toml"),
-            &root.join("config/vehicles/lc500.toml"),
-            &root.join("config/solver.toml"),
-        )
-        .expect("oval scenario")
-    }
-
-    /// Braking to a stop from a straight-line cruise at several points of the oval
-    /// (straights, curve entries, curves) stops the car inside the lane (+-4 m, 1 m to
-    /// spare), for every speed the curve allows (V^2 kappa <= mu g). Without rear slip
-    /// control the car spun out of the lane at curve entry.
-    #[test]
-    fn brake_to_stop_keeps_the_lane() {
-        let sc = oval();
-        let g = Gains::default();
-        let dt = 0.00025;
-        for s0 in [
-            0.0, 20.0, 40.0, 60.0, 80.0, 100.0, 130.0, 160.0, 200.0, 240.0,
-        ] {
-            for v0 in [10.0, 15.0, 20.0] {
-                let p = &sc.spec.vehicle;
-                if v0 * v0 * sc.road.kappa(s0).abs() > p.mu * p.g {
-                    continue; // no controller can hold this curve
-                }
-                let mut plant = Plant::cruise(sc.spec.vehicle, v0);
-                plant.x[ix::S] = s0;
-                let (mut lo, mut hi) = (0.0f64, 0.0f64);
-                let mut steps = 0;
-                while !plant.stopped && steps < 400_000 {
-                    let u = brake_to_stop(&sc.spec.vehicle, &g, &plant.x, &sc.road, 0.0);
-                    plant.step(u, &sc.road, dt);
-                    lo = lo.min(plant.x[ix::E]);
-                    hi = hi.max(plant.x[ix::E]);
-                    steps += 1;
-                }
-                assert!(plant.stopped, "s0 {s0} v0 {v0}: not stopped");
-                assert!(lo > -3.0 && hi < 3.0, "s0 {s0} v0 {v0}: e in [{lo}, {hi}]");
-            }
-        }
-    }
-
-    /// The emergency stop on a straight delivers what it commands to the model's car (no
-    /// actuator lag): from 25 m/s the deceleration over the stop averages within 5 % of
-    /// 0.8 mu g, the front brake inside its torque limit.
-    #[test]
-    fn an_emergency_stop_from_25_mps_decelerates_as_commanded() {
-        let sc = oval();
-        let p = sc.spec.vehicle;
-        let g = Gains::default().emergency_stop(&p);
-        let dt = 0.00025;
-        // The oval's first 50 m are straight; the stop from 25 m/s at 0.8 mu g takes 40 m.
-        let mut plant = Plant::cruise(p, 25.0);
-        let mut steps = 0;
-        while !plant.stopped && steps < 400_000 {
-            let u = brake_to_stop(&p, &g, &plant.x, &sc.road, 0.0);
-            assert!(
-                u[iu::TBF] >= p.t_bf_min - 1e-9,
-                "front torque {}",
-                u[iu::TBF]
-            );
-            plant.step(u, &sc.road, dt);
-            steps += 1;
-        }
-        assert!(plant.stopped, "not stopped");
-        let avg = 25.0 / (steps as f64 * dt);
-        let want = 0.8 * p.mu * p.g;
-        assert!(
-            (avg - want).abs() < 0.05 * want,
-            "average deceleration {avg:.2} m/s^2 against {want:.2} commanded"
-        );
     }
 }
 

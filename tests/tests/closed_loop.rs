@@ -303,8 +303,9 @@ fn the_infeasible_swerve_brakes_in_lane_and_reports_the_contact() {
         impact > 0.0 && impact < 25.0,
         "braked before the contact: {v}"
     );
-    // The car braked at the grip limit: from 25 m/s it stops within 25^2 / (2 * 5) m.
-    assert!(v["laps_or_distance_m"].as_f64().unwrap() < 62.5, "{v}");
+    // The car braked as commanded (0.8 mu g = 7.85 m/s^2, 39.8 m from 25 m/s): within
+    // 10 % of that deceleration it stops within 25^2 / (2 * 0.9 * 7.85) = 44.2 m.
+    assert!(v["laps_or_distance_m"].as_f64().unwrap() < 44.2, "{v}");
 }
 
 /// A profile with a NaN is refused before any process starts, naming the file and line.

@@ -112,11 +112,24 @@ impl Controller {
         let r = reference(plan, s_local)?;
         let ahead = (s_local + y[ix::V].max(0.0) * self.preview_s).min(plan.length());
         let ff = reference(plan, ahead).map_or(r.u, |a| a.u);
+        Some((self.feedback(y, &r.x, r.u[iu::DELTA], ff), r))
+    }
+
+    /// The feed-forward `ff` corrected by the LQR feedback on the error of `y` against the
+    /// reference state `x_ref`, whose steering is `delta_ref`: u = ff - K(V) z_a. Allocates
+    /// nothing.
+    pub fn feedback(
+        &self,
+        y: &[f64; NX],
+        x_ref: &[f64; NX],
+        delta_ref: f64,
+        ff: [f64; NU],
+    ) -> [f64; NU] {
         let mut z = [0.0; NA];
         for (j, &i) in Z_STATES.iter().enumerate() {
-            z[j] = y[i] - r.x[i];
+            z[j] = y[i] - x_ref[i];
         }
-        z[NZ] = self.delta_est - r.u[iu::DELTA];
+        z[NZ] = self.delta_est - delta_ref;
         let dpsi = Z_STATES
             .iter()
             .position(|&i| i == ix::DPSI)
@@ -131,7 +144,7 @@ impl Controller {
             }
             u[V_INPUTS[m]] -= v;
         }
-        Some((u, r))
+        u
     }
 }
 

@@ -544,7 +544,14 @@ impl TrackerLoop {
                     self.e_hold = r.x[ix::E];
                     u
                 }
-                None => brake_to_stop(&params, &self.stop_gains, &y, road, self.e_hold),
+                None => brake_to_stop(
+                    &params,
+                    &self.stop_gains,
+                    &self.controller,
+                    &y,
+                    road,
+                    self.e_hold,
+                ),
             };
             self.controller.applied(u[iu::DELTA]);
             car.drive(u, road, self.substeps, self.plant_dt);

@@ -3,24 +3,32 @@
 //!
 //! The car brakes along the road at a deceleration a: at least `Gains::stop_decel`, more
 //! when a curve ahead must be entered slower, at most what the friction circle leaves next
-//! to the current curve's lateral acceleration. It steers kinematically for the road's
-//! curvature, with feedback to a held lateral offset and zero heading error.
+//! to the current curve's lateral acceleration.
 //!
 //! The brake force m a is split in proportion to the axle loads at that deceleration,
 //! F_zf = m g b / L + m a h / L on the front and the rest on the rear, so that both axles
 //! use the same share of their grip (the ideal brake distribution); the front share is
 //! capped at its brake's torque limit and the rear takes what the front cannot. The front
-//! force is open loop (F_xf = T_bf / R_w, R1). The rear force needs a rear slip: the rear
-//! torque is the feed-forward of that force and of the wheel's own deceleration, plus slip
-//! control toward the wheel speed V_x (1 + kappa*) at which the Fiala tire gives that force,
-//! kappa* found by bisection at the car's current rear load and slip angle. Slip control
-//! around free rolling would hold the wheel off the slip the force needs and, at 25 m/s,
-//! give up a sixth of the stop's deceleration; the target slip stays within 80 % of the
-//! sliding slip (99 % of the peak force), so the wheel does not lock.
+//! force is open loop (F_xf = T_bf / R_w, R1). The rear force needs a rear slip: the wheel
+//! is held at the speed V_x (1 + kappa*) at which the Fiala tire gives that force, kappa*
+//! found by bisection at the car's current rear load and slip angle, within 80 % of the
+//! sliding slip (99 % of the peak force) so that the wheel does not lock. Holding it at free
+//! rolling instead keeps it off the slip the force needs and, at 25 m/s, gives up a sixth
+//! of the stop's deceleration.
+//!
+//! The stop is a reference like a plan's, and the tracker's LQR ([`Controller::feedback`])
+//! holds the car on it: the road's kinematic steering L kappa and the two brake torques
+//! (the rear's with the wheel's own deceleration, I_w a / R_w) as feed-forward, around the
+//! state r = kappa V, beta = 0, the target wheel speed, the held lateral offset and zero
+//! heading error, at the car's own speed. Under hard braking the unloaded, braked rear loses
+//! cornering stiffness and the yaw mode of a fast car goes unstable; fixed steering gains
+//! spun the car from 47 m/s on Montreal's straight, the LQR's yaw-rate and sideslip feedback
+//! holds it.
 
 use planner::model::{ix, tire_forces, VehicleParams, NU, NX};
 
 use super::Gains;
+use crate::controller::Controller;
 use crate::road::ClosedRoad;
 
 /// Share of the rear's full-sliding slip its target slip stays within: the Fiala force
@@ -60,22 +68,24 @@ fn stop_decel(p: &VehicleParams, g: &Gains, x: &[f64; NX], road: &ClosedRoad, ka
 pub fn brake_to_stop(
     p: &VehicleParams,
     g: &Gains,
+    ctl: &Controller,
     x: &[f64; NX],
     road: &ClosedRoad,
     e_hold: f64,
 ) -> [f64; NU] {
     let kappa = road.kappa(x[ix::S]);
-    let delta = p.l * kappa
-        - g.k_e * (x[ix::E] - e_hold)
-        - g.k_dpsi * x[ix::DPSI]
-        - g.k_r * (x[ix::R] - kappa * x[ix::V]);
+    let delta = p.l * kappa;
     let a = stop_decel(p, g, x, road, kappa);
     let (f_front, f_rear) = brake_split(p, a);
-    let v_wr_target = rear_wheel_speed_for(p, x, -f_rear);
     // I_w dV_wr/dt = R_w (T_comb - R_w F_xr) with dV_wr/dt = -a and F_xr = -f_rear.
     let t_rear = -f_rear * p.r_w - p.i_w * a / p.r_w;
-    let slip = g.k_w * (x[ix::VWR] - v_wr_target);
-    [delta, t_rear - slip, -f_front * p.r_w]
+    let mut x_ref = *x;
+    x_ref[ix::R] = kappa * x[ix::V];
+    x_ref[ix::BETA] = 0.0;
+    x_ref[ix::VWR] = rear_wheel_speed_for(p, x, -f_rear);
+    x_ref[ix::E] = e_hold;
+    x_ref[ix::DPSI] = 0.0;
+    ctl.feedback(x, &x_ref, delta, [delta, t_rear, -f_front * p.r_w])
 }
 
 /// Front and rear brake forces [N] (both >= 0) for a deceleration `a`: the total m a in
@@ -132,19 +142,80 @@ fn rear_wheel_speed_for(p: &VehicleParams, x: &[f64; NX], fx: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::controller::Actuator;
     use crate::plant::Plant;
-    use crate::road::Scenario;
+    use crate::road::{RoadArgs, Scenario};
     use planner::model::iu;
+
+    /// The repository root.
+    fn root() -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+    }
 
     /// The shipped oval with the shipped vehicle and solver files.
     fn oval() -> Scenario {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let root = root();
         Scenario::load(
             &root.join("config/scenarios/oval.toml"),
             &root.join("config/vehicles/lc500.toml"),
             &root.join("config/solver.toml"),
         )
         .expect("oval scenario")
+    }
+
+    /// A shipped track with the shipped vehicle and solver files.
+    fn track(name: &str) -> Scenario {
+        let root = root();
+        let args = RoadArgs {
+            track: Some(name.into()),
+            tracks_index: root.join("config/tracks/tracks.toml"),
+            track_profile: None,
+            lap_length_m: None,
+            segment: None,
+            tire_saturation: None,
+            obstacle_reach_m: 0.0,
+            track_v_max_mps: crate::road::TRACK_SPEEDS_MPS.1,
+        };
+        Scenario::load_with(
+            &root.join("config/scenarios/oval.toml"),
+            &args,
+            &root.join("config/vehicles/lc500.toml"),
+            &root.join("config/solver.toml"),
+        )
+        .expect("track scenario")
+    }
+
+    /// Control period of the tests \[s\] and plant steps per period.
+    const CONTROL_DT: f64 = 0.001;
+    const SUBSTEPS: usize = 4;
+
+    /// Brakes `plant` to a stop on `sc`'s road with gains `g` and the LQR of the model's
+    /// car (no actuator lag or delay), calling `each` after every control period with the
+    /// plant and the command; false when the car has not stopped within 100 s.
+    fn stop(
+        sc: &Scenario,
+        g: &Gains,
+        plant: &mut Plant,
+        mut each: impl FnMut(&Plant, &[f64; NU]),
+    ) -> bool {
+        let p = sc.spec.vehicle;
+        let none = Actuator {
+            steering_lag_s: 0.0,
+            delay_steps: 0,
+        };
+        let mut ctl = Controller::new(&p, CONTROL_DT, 0.0, none).expect("LQR design");
+        for _ in 0..100_000 {
+            if plant.stopped {
+                return true;
+            }
+            let u = brake_to_stop(&p, g, &ctl, &plant.x, &sc.road, 0.0);
+            ctl.applied(u[iu::DELTA]);
+            for _ in 0..SUBSTEPS {
+                plant.step(u, &sc.road, CONTROL_DT / SUBSTEPS as f64);
+            }
+            each(plant, &u);
+        }
+        plant.stopped
     }
 
     /// Braking to a stop from a straight-line cruise at several points of the oval
@@ -155,7 +226,6 @@ mod tests {
     fn brake_to_stop_keeps_the_lane() {
         let sc = oval();
         let g = Gains::default();
-        let dt = 0.00025;
         for s0 in [
             0.0, 20.0, 40.0, 60.0, 80.0, 100.0, 130.0, 160.0, 200.0, 240.0,
         ] {
@@ -167,15 +237,11 @@ mod tests {
                 let mut plant = Plant::cruise(sc.spec.vehicle, v0);
                 plant.x[ix::S] = s0;
                 let (mut lo, mut hi) = (0.0f64, 0.0f64);
-                let mut steps = 0;
-                while !plant.stopped && steps < 400_000 {
-                    let u = brake_to_stop(&sc.spec.vehicle, &g, &plant.x, &sc.road, 0.0);
-                    plant.step(u, &sc.road, dt);
-                    lo = lo.min(plant.x[ix::E]);
-                    hi = hi.max(plant.x[ix::E]);
-                    steps += 1;
-                }
-                assert!(plant.stopped, "s0 {s0} v0 {v0}: not stopped");
+                let stopped = stop(&sc, &g, &mut plant, |pl, _| {
+                    lo = lo.min(pl.x[ix::E]);
+                    hi = hi.max(pl.x[ix::E]);
+                });
+                assert!(stopped, "s0 {s0} v0 {v0}: not stopped");
                 assert!(lo > -3.0 && hi < 3.0, "s0 {s0} v0 {v0}: e in [{lo}, {hi}]");
             }
         }
@@ -183,34 +249,25 @@ mod tests {
 
     /// The emergency stop on a straight delivers what it commands to the model's car (no
     /// actuator lag) at every speed: from 25 m/s, each 5 m/s of the stop down to 5 m/s
-    /// takes the time 0.8 mu g gives it within 5 %, the front brake inside its torque limit.
-    /// Slip control around free rolling gave 6.5 m/s^2 at 25 m/s against 7.85 commanded.
+    /// takes the time 0.8 mu g gives it within 5 %. Slip control around free rolling gave
+    /// 6.5 m/s^2 at 25 m/s against 7.85 commanded.
     #[test]
     fn an_emergency_stop_from_25_mps_decelerates_as_commanded() {
         let sc = oval();
         let p = sc.spec.vehicle;
         let g = Gains::default().emergency_stop(&p);
         let want = 0.8 * p.mu * p.g;
-        let dt = 0.00025;
         // The oval's first 50 m are straight; the stop from 25 m/s at 0.8 mu g takes 40 m.
         let mut plant = Plant::cruise(p, 25.0);
-        let mut crossed = vec![0.0];
-        let mut steps = 0;
-        while !plant.stopped && steps < 400_000 {
-            let u = brake_to_stop(&p, &g, &plant.x, &sc.road, 0.0);
-            assert!(
-                u[iu::TBF] >= p.t_bf_min - 1e-9,
-                "front torque {}",
-                u[iu::TBF]
-            );
-            plant.step(u, &sc.road, dt);
-            steps += 1;
+        let (mut crossed, mut t) = (vec![0.0], 0.0);
+        let stopped = stop(&sc, &g, &mut plant, |pl, _| {
+            t += CONTROL_DT;
             let next = 25.0 - 5.0 * crossed.len() as f64;
-            if next >= 5.0 && plant.x[ix::V] <= next {
-                crossed.push(steps as f64 * dt);
+            if next >= 5.0 && pl.x[ix::V] <= next {
+                crossed.push(t);
             }
-        }
-        assert!(plant.stopped, "not stopped");
+        });
+        assert!(stopped, "not stopped");
         assert_eq!(crossed.len(), 5, "crossed 20, 15, 10, 5 m/s at {crossed:?}");
         for (k, w) in crossed.windows(2).enumerate() {
             let got = 5.0 / (w[1] - w[0]);
@@ -220,6 +277,67 @@ mod tests {
                 "{from}..{} m/s: {got:.2} m/s^2 against {want:.2} commanded",
                 from - 5.0
             );
+        }
+    }
+
+    /// The split gives the front its load share at the deceleration, never past its brake's
+    /// torque limit, and the two forces add up to m a.
+    #[test]
+    fn the_brake_split_follows_the_loads_within_the_front_limit() {
+        let p = oval().spec.vehicle;
+        for a in [1.0, 4.0, 7.85, 12.0] {
+            let (f, r) = brake_split(&p, a);
+            assert!((f + r - p.m * a).abs() < 1e-9 * p.m * a, "a {a}: {f} + {r}");
+            assert!(f * p.r_w <= -p.t_bf_min + 1e-9, "a {a}: front {f} N");
+            let share = (p.fz_nom_front() + p.m * a * p.h_cg / p.l) / (p.m * p.g);
+            if share * p.m * a * p.r_w < -p.t_bf_min {
+                assert!((f - share * p.m * a).abs() < 1e-9 * p.m * a, "a {a}: {f}");
+            }
+        }
+    }
+
+    /// A stale plan at top speed before Montreal's hairpin (kappa 0.065 1/m at s = 2018 m):
+    /// the comfort stop from 40 to 55 m/s, 130 to 200 m before the hairpin's entry
+    /// (wherever 0.8 mu g can slow the car to the hairpin's speed in time), stays at least
+    /// 1 m inside the edges on the model's car (2.9-3.9 m measured). With fixed steering gains the car
+    /// spun from 47 m/s on the straight (the rear, unloaded and braked, loses cornering
+    /// stiffness and the yaw mode goes unstable); the stop steers with the LQR.
+    #[test]
+    fn a_stop_from_top_speed_before_montreals_hairpin_keeps_the_lane() {
+        let sc = track("Montreal");
+        let g = Gains::default();
+        let (mut entry, mut kmax) = (0.0, 0.0f64);
+        let mut s = 0.0;
+        while s < sc.road.lap() {
+            if sc.road.kappa(s).abs() > kmax {
+                (kmax, entry) = (sc.road.kappa(s).abs(), s);
+            }
+            s += 1.0;
+        }
+        while sc.road.kappa(entry - 1.0).abs() > 0.2 * kmax {
+            entry -= 1.0;
+        }
+        for v0 in [40.0, 47.0, 55.0] {
+            for before in [130.0, 160.0, 200.0] {
+                let p = sc.spec.vehicle;
+                // The hairpin's speed as the stop law enters a curve (half the grip left).
+                let v_c2 = 0.75 * 0.8 * p.mu * p.g / kmax;
+                if v0 * v0 - v_c2 > 2.0 * 0.8 * p.mu * p.g * before {
+                    continue; // no stop at 0.8 mu g slows to it in time
+                }
+                let mut plant = Plant::cruise(p, v0);
+                plant.x[ix::S] = entry - before;
+                let mut inside = f64::INFINITY;
+                let stopped = stop(&sc, &g, &mut plant, |pl, _| {
+                    let (lo, hi) = sc.road.edges(pl.x[ix::S]);
+                    inside = inside.min((pl.x[ix::E] - lo).min(hi - pl.x[ix::E]));
+                });
+                assert!(stopped, "{v0} m/s, {before} m before: not stopped");
+                assert!(
+                    inside > 1.0,
+                    "{v0} m/s, {before} m before: {inside:.2} m inside an edge"
+                );
+            }
         }
     }
 }

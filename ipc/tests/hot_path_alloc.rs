@@ -215,7 +215,8 @@ fn recording_a_plan_in_the_cycle_allocates_nothing() {
 /// The tracker's 1 kHz step allocates nothing with the default plant mismatch: measuring
 /// (noise draw), filtering the measurement (the estimator's model steps), the feed-forward
 /// plus LQR control (gain interpolation, plan lookup) and driving the car (delay line,
-/// steering lag, plant RK4 substeps).
+/// steering lag, plant RK4 substeps); so does braking to a stop without a plan (the rear
+/// target slip's bisection, the LQR on the stop's reference).
 #[test]
 fn the_tracker_step_with_mismatch_allocates_nothing() {
     use ipc::controller::Controller;
@@ -288,6 +289,23 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
     assert!(
         car.plant.x[ix::S] > 20.0,
         "the car drove: {:?}",
+        car.plant.x
+    );
+    // The stop without a plan (the target rear slip's bisection, the LQR on its reference).
+    let gains = ipc::tracker::Gains::default().emergency_stop(&p);
+    let v_before = car.plant.x[ix::V];
+    let info = allocation_counter::measure(|| {
+        for _ in 0..500 {
+            let y = car.measure();
+            let u = ipc::tracker::brake_to_stop(&p, &gains, &controller, &y, &sc.road, 0.0);
+            controller.applied(u[planner::model::iu::DELTA]);
+            car.drive(u, &sc.road, substeps, control_dt / substeps as f64);
+        }
+    });
+    assert_eq!(info.count_total, 0, "{info:?}");
+    assert!(
+        car.plant.x[ix::V] < v_before - 2.0,
+        "the car braked: {:?}",
         car.plant.x
     );
 }

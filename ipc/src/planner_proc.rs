@@ -20,7 +20,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use plan_record::now_ns;
 use planner::guess::GuessKind;
-use planner::ip::SolveInfo;
+use planner::ip::{MuMatch, SolveInfo};
 use planner::model::{ix, NU, NX};
 use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 
@@ -104,13 +104,6 @@ impl Cycle {
 const MIN_SOLVE_S: f64 = 1e-6;
 
 /// The options of a warm-started replan falling back to `cold`.
-fn warm_options(cold: GuessKind) -> WarmOptions {
-    WarmOptions {
-        cold,
-        ..WarmOptions::default()
-    }
-}
-
 /// `x` moved at least 1 mm (or m/s) inside [lo, hi]; the midpoint when the interval is
 /// narrower than that (never panics, unlike `clamp` on crossed bounds).
 fn nudge_into(x: f64, lo: f64, hi: f64) -> f64 {
@@ -214,8 +207,8 @@ struct PlannerLoop {
     /// Speed envelope for the plans' last node (`--end-speed-envelope`; `None`: off).
     envelope: Option<end_speed::EndSpeed>,
     warm_start: bool,
-    /// Guess of a cold solve.
-    cold_guess: GuessKind,
+    /// How a warm-started replan runs (its cold fall-back is the guess of every cold solve).
+    warm_opts: WarmOptions,
     recorder: Option<CycleRecorder>,
     cy: Cycle,
     policy: publish_policy::Policy,
@@ -246,6 +239,12 @@ struct PlannerLoop {
 
 /// Checks the numeric options; the error names the first one out of its range.
 fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
+    if MuMatch::parse(&args.warm_mu, args.warm_mu_factor).is_none() {
+        return Err(PlannerProcError::Setup(format!(
+            "--warm-mu-factor {}: must be finite and > 0",
+            args.warm_mu_factor
+        )));
+    }
     if !(args.rate_hz > 0.0 && args.rate_hz <= 1000.0) {
         return Err(PlannerProcError::Setup(
             "--rate-hz must be in (0, 1000]".into(),
@@ -380,7 +379,13 @@ impl PlannerLoop {
             soft_margin: args.soft_lane_m,
             envelope,
             warm_start: args.warm_start == "on",
-            cold_guess,
+            warm_opts: WarmOptions {
+                cold: cold_guess,
+                // `check_args` has checked the rule.
+                mu_match: MuMatch::parse(&args.warm_mu, args.warm_mu_factor)
+                    .unwrap_or(MuMatch::DEFAULT),
+                ..WarmOptions::default()
+            },
             recorder,
             cy,
             policy: publish_policy::Policy::default(),
@@ -579,7 +584,7 @@ impl PlannerLoop {
                 x0,
                 (&cy.guess_x, &cy.guess_u),
                 shift,
-                warm_options(self.cold_guess),
+                self.warm_opts,
             );
             match r {
                 Ok(r) => {
@@ -600,7 +605,7 @@ impl PlannerLoop {
             &cy.road.e_min,
             &cy.road.e_max,
             x0,
-            ReplanGuess::cold(self.cold_guess),
+            ReplanGuess::cold(self.warm_opts.cold),
         ) {
             Ok(i) => Some((i, Start::Cold)),
             Err(e) => {
@@ -623,7 +628,7 @@ impl PlannerLoop {
         let warm = match solved.start {
             Start::Warm { shift, .. } => Some(WarmRecord {
                 shift,
-                opts: warm_options(self.cold_guess),
+                opts: self.warm_opts,
                 guess: (&cy.guess_x, &cy.guess_u),
                 duals: cy.planner.warm_duals(),
             }),

@@ -10,7 +10,7 @@ use plan_record::{
 
 use crate::guess::GuessKind;
 use crate::ip::kkt::KktBackendKind;
-use crate::ip::{BarrierRule, Globalization, Settings, SolveInfo};
+use crate::ip::{BarrierRule, Globalization, MuMatch, Settings, SolveInfo};
 use crate::model::{VehicleParams, NU, NX};
 use crate::ocp::{InitialState, OcpSpec};
 use crate::plan::{WarmDuals, WarmOptions};
@@ -445,6 +445,9 @@ pub fn write_warm(
     out.shift_m = shift_m;
     out.warm_max_iter = u64::try_from(opts.max_iter).unwrap_or(u64::MAX);
     out.mu_floor = opts.mu_floor;
+    out.mu_match.clear();
+    out.mu_match.push_str(opts.mu_match.name());
+    out.mu_match_factor = opts.mu_match.factor();
     out.cold_guess.clear();
     out.cold_guess.push_str(opts.cold.name());
     out.states.clear();
@@ -474,9 +477,19 @@ pub fn warm_from(w: &PlanWarmStart) -> Result<(WarmOptions, WarmDuals<'_>), Reco
     if !(w.mu_floor > 0.0 && w.mu_floor.is_finite()) {
         return Err(bad("mu_floor", format!("{} is not positive", w.mu_floor)));
     }
+    let mu_match = MuMatch::parse(&w.mu_match, w.mu_match_factor).ok_or_else(|| {
+        bad(
+            "mu_match",
+            format!(
+                "`{}` with factor {} is not a rule (mean, or geometric with a positive factor)",
+                w.mu_match, w.mu_match_factor
+            ),
+        )
+    })?;
     let opts = WarmOptions {
         max_iter: usize::try_from(w.warm_max_iter).unwrap_or(usize::MAX),
         mu_floor: w.mu_floor,
+        mu_match,
         cold,
     };
     let duals = WarmDuals {
@@ -485,4 +498,60 @@ pub fn warm_from(w: &PlanWarmStart) -> Result<(WarmOptions, WarmDuals<'_>), Reco
         zu: &w.zu,
     };
     Ok((opts, duals))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A warm start written with the default options.
+    fn written() -> PlanWarmStart {
+        let mut w = PlanWarmStart::with_capacity(2, 4, 3);
+        let duals = WarmDuals {
+            y: &[0.0; 3],
+            zl: &[1.0; 7],
+            zu: &[1.0; 7],
+        };
+        let opts = WarmOptions::default();
+        write_warm(
+            &mut w,
+            (7, 0, 1.5),
+            &opts,
+            (&[[0.0; NX]; 3], &[[0.0; NU]; 2]),
+            duals,
+        );
+        w
+    }
+
+    /// The barrier rule goes into a recording and comes back as it was written.
+    #[test]
+    fn a_warm_starts_barrier_rule_round_trips_through_its_record() {
+        let w = written();
+        assert_eq!(
+            (w.mu_match.as_str(), w.mu_match_factor),
+            ("geometric", 30.0)
+        );
+        let (opts, _) = warm_from(&w).unwrap();
+        assert_eq!(opts, WarmOptions::default());
+    }
+
+    /// A recorded rule that is not one, or a geometric factor that is not positive, is
+    /// refused with the input's seq and the field.
+    #[test]
+    fn a_recorded_warm_start_with_a_bad_barrier_rule_is_refused_by_field() {
+        for (name, factor) in [
+            ("median", 30.0),
+            ("geometric", 0.0),
+            ("geometric", f64::NAN),
+        ] {
+            let mut w = written();
+            w.mu_match = name.into();
+            w.mu_match_factor = factor;
+            let e = warm_from(&w).unwrap_err().to_string();
+            assert!(e.contains("recorded input 7: field `mu_match`"), "{e}");
+        }
+        let mut w = written();
+        (w.mu_match, w.mu_match_factor) = ("mean".into(), 1.0);
+        assert_eq!(warm_from(&w).unwrap().0.mu_match, MuMatch::Mean);
+    }
 }

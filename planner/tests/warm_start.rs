@@ -162,3 +162,46 @@ fn a_warm_solve_stopped_by_the_clock_returns_its_best_iterate_instead_of_falling
         "speed at the middle node moved {v_gap} m/s from the warm guess"
     );
 }
+
+/// The warm start's barrier rule changes where the solve starts, not where it ends: from
+/// the same shifted plan the mean and the geometric rule (factors 3 and 300) reach the same
+/// t_N, and the geometric rule's first barrier parameter scales with its factor (100 times
+/// for 100 times the factor, unless clipped to [mu_floor, mu_init]).
+#[test]
+fn the_warm_barrier_rules_reach_the_same_plan_and_the_geometric_one_scales_with_its_factor() {
+    use planner::ip::MuMatch;
+    let run = |mu_match: MuMatch| {
+        let (mut p, spec, lap) = planned();
+        let (k, lo, hi, x0) = window(&spec, &lap, 2);
+        let shift = 2.0 * spec.ds();
+        let (xs, us) = shifted(&p, spec.ds(), shift, &x0);
+        let opts = WarmOptions {
+            mu_match,
+            ..WarmOptions::default()
+        };
+        let r = p
+            .replan_warm(&k, &lo, &hi, x0, (&xs, &us), shift, opts)
+            .unwrap();
+        assert!(
+            r.info.status.is_success() && !r.fell_back,
+            "{mu_match:?}: {r:?}"
+        );
+        (p.states()[N][ix::T], p.solver().log()[0].mu)
+    };
+    let (t_mean, _) = run(MuMatch::Mean);
+    let (t_3, mu_3) = run(MuMatch::Geometric { factor: 3.0 });
+    let (t_300, mu_300) = run(MuMatch::Geometric { factor: 300.0 });
+    for t in [t_3, t_300] {
+        assert!(
+            (t - t_mean).abs() <= 1e-6 * t_mean,
+            "t_N {t} against {t_mean}"
+        );
+    }
+    let settings = oval().1;
+    let (lo, hi) = (WarmOptions::default().mu_floor, settings.mu_init);
+    assert!(mu_3 > lo && mu_300 < hi, "clipped: {mu_3}, {mu_300}");
+    assert!(
+        (mu_300 / mu_3 - 100.0).abs() < 1e-9 * 100.0,
+        "first mu {mu_3} and {mu_300}"
+    );
+}

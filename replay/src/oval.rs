@@ -43,6 +43,8 @@ pub struct OvalOptions {
     pub out: PathBuf,
     /// Warm-start each plan from the previous one.
     pub warm_start: bool,
+    /// How a warm start's first barrier parameter is matched to the shifted point.
+    pub mu_match: planner::ip::MuMatch,
 }
 
 /// Why the drive could not be recorded.
@@ -158,7 +160,7 @@ fn shifted_spec(base: &OcpSpec, track: &Track, s0: f64, x: [f64; NX]) -> OcpSpec
 fn warm_plan(
     planner: &mut Planner<N>,
     spec: &OcpSpec,
-    shift: f64,
+    (shift, mu_match): (f64, planner::ip::MuMatch),
     (seq, stamp): (u64, u64),
 ) -> Result<(planner::ip::SolveInfo, f64, PlanWarmStart), OvalError> {
     let InitialState::Fixed(x0) = spec.initial else {
@@ -171,7 +173,10 @@ fn warm_plan(
         )));
     };
     shift_plan(xs, us, spec.ds(), shift, &x0, &mut gx, &mut gu);
-    let opts = WarmOptions::default();
+    let opts = WarmOptions {
+        mu_match,
+        ..WarmOptions::default()
+    };
     let t0 = Instant::now();
     let r = planner.replan_warm(
         &spec.kappa,
@@ -253,7 +258,12 @@ pub fn record_oval(
             Some((mut planner, s_src)) if opts.warm_start && planner.warm_source().is_some() => {
                 input.guess = WARM_GUESS.into();
                 let shift = x[ix::S] - s_src;
-                let (info, ms, w) = warm_plan(&mut planner, &spec, shift, (i as u64, stamp))?;
+                let (info, ms, w) = warm_plan(
+                    &mut planner,
+                    &spec,
+                    (shift, opts.mu_match),
+                    (i as u64, stamp),
+                )?;
                 (planner, info, ms, Some(w))
             }
             _ => {

@@ -113,6 +113,14 @@ pub struct PlannerArgs {
     /// `off` starts every plan from the cold guess.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub warm_start: String,
+    /// How a warm start's first barrier parameter is matched to the shifted point:
+    /// `geometric` (`--warm-mu-factor` times the geometric mean of the complementarity
+    /// products) or `mean` (their average; docs/solver.md).
+    #[arg(long, default_value = "geometric", value_parser = ["geometric", "mean"])]
+    pub warm_mu: String,
+    /// Multiple of the geometric mean for `--warm-mu geometric` (finite, > 0).
+    #[arg(long, default_value_t = 30.0)]
+    pub warm_mu_factor: f64,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
     #[arg(long)]
     pub exit_on_stdin_eof: bool,

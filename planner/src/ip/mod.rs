@@ -23,4 +23,4 @@ pub mod workspace;
 pub use info::{IterLog, PhaseTimes, SolveInfo, Status, StepKind};
 pub use nlp::{Nlp, NlpDims};
 pub use settings::{BarrierRule, Globalization, Settings};
-pub use solver::{SetupError, Solver, WarmStart};
+pub use solver::{MuMatch, SetupError, Solver, WarmStart};

@@ -21,7 +21,7 @@
 
 use super::{PlanError, Planner, ReplanGuess};
 use crate::guess::GuessKind;
-use crate::ip::{SolveInfo, WarmStart};
+use crate::ip::{MuMatch, SolveInfo, WarmStart};
 use crate::model::{ix, NU, NX};
 use crate::ocp::layout::VarKind;
 use crate::ocp::transcription::RowKind;
@@ -35,6 +35,8 @@ pub struct WarmOptions {
     pub max_iter: usize,
     /// Lower clip of the matched barrier parameter.
     pub mu_floor: f64,
+    /// How the warm solve's first barrier parameter is matched to its start.
+    pub mu_match: MuMatch,
     /// The cold start the replan falls back to (equilibrium or road speed; the zero
     /// guess falls back to the equilibrium).
     pub cold: GuessKind,
@@ -45,6 +47,7 @@ impl Default for WarmOptions {
         Self {
             max_iter: usize::MAX,
             mu_floor: 1e-6,
+            mu_match: MuMatch::DEFAULT,
             cold: GuessKind::Equilibrium,
         }
     }
@@ -316,6 +319,7 @@ impl<const N: usize> Planner<N> {
             zl: &self.warm.zl,
             zu: &self.warm.zu,
             mu_floor: opts.mu_floor,
+            mu_match: opts.mu_match,
         };
         let info = self.solver.solve_warm(&mut self.nlp, &start);
         self.solver.set_settings(base).ok();

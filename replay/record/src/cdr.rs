@@ -410,6 +410,8 @@ pub fn encode_warm(e: &mut Encoder, m: &PlanWarmStart) {
     e.f64(m.shift_m);
     e.u64(m.warm_max_iter);
     e.f64(m.mu_floor);
+    e.string(&m.mu_match);
+    e.f64(m.mu_match_factor);
     e.string(&m.cold_guess);
     encode_columns(e, &m.states, &m.controls);
     e.f64_seq(m.y.iter().copied());
@@ -426,6 +428,8 @@ pub fn decode_warm(data: &[u8]) -> Result<PlanWarmStart, DecodeError> {
         shift_m: d.f64("shift_m")?,
         warm_max_iter: d.u64("warm_max_iter")?,
         mu_floor: d.f64("mu_floor")?,
+        mu_match: d.string("mu_match")?,
+        mu_match_factor: d.f64("mu_match_factor")?,
         cold_guess: d.string("cold_guess")?,
         states: Vec::new(),
         controls: Vec::new(),

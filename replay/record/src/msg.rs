@@ -219,6 +219,10 @@ pub struct PlanWarmStart {
     pub warm_max_iter: u64,
     /// Lower clip of the matched barrier parameter.
     pub mu_floor: f64,
+    /// How the barrier parameter is matched to the start (`mean` or `geometric`).
+    pub mu_match: String,
+    /// Multiple of the geometric mean (`geometric`; 1 for `mean`).
+    pub mu_match_factor: f64,
     /// The cold guess the solve falls back to (`equilibrium` or `road_speed`).
     pub cold_guess: String,
     /// Primal guess x_0..x_N (physical units).
@@ -243,6 +247,8 @@ impl PlanWarmStart {
             shift_m: 0.0,
             warm_max_iter: u64::MAX,
             mu_floor: 0.0,
+            mu_match: String::with_capacity(STATUS_CAPACITY),
+            mu_match_factor: 1.0,
             cold_guess: String::with_capacity(STATUS_CAPACITY),
             states: Vec::with_capacity(n_intervals + 1),
             controls: Vec::with_capacity(n_intervals),
@@ -305,6 +311,7 @@ impl PlanRecord {
                 ..o.clone()
             },
             warm: PlanWarmStart {
+                mu_match: string(&w.mu_match),
                 cold_guess: string(&w.cold_guess),
                 states: vec(&w.states, w.states.capacity()),
                 controls: vec(&w.controls, w.controls.capacity()),

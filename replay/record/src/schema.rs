@@ -104,6 +104,10 @@ float64 shift_m
 # iterations before the warm solve falls back (2^64-1: the solver's cap)
 uint64 warm_max_iter
 float64 mu_floor
+# how the first barrier parameter is matched to the start: mean, or geometric (the factor
+# times the geometric mean of the complementarity products)
+string mu_match
+float64 mu_match_factor
 # guess of the fall-back solve
 string cold_guess
 # primal guess, one float64[] per state (N+1 nodes) and control (N intervals)

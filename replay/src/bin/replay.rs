@@ -89,6 +89,13 @@ enum Command {
         /// equilibrium guess).
         #[arg(long, default_value = "on", value_parser = ["on", "off"])]
         warm_start: String,
+        /// How a warm start's first barrier parameter is matched to the shifted point:
+        /// geometric or mean (as `planner_proc --warm-mu`).
+        #[arg(long, default_value = "geometric", value_parser = ["geometric", "mean"])]
+        warm_mu: String,
+        /// Multiple of the geometric mean for `--warm-mu geometric` (finite, > 0).
+        #[arg(long, default_value_t = 30.0)]
+        warm_mu_factor: f64,
         /// Output file.
         #[arg(long, default_value = "out/oval_drive.mcap")]
         out: PathBuf,
@@ -233,6 +240,8 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             plans,
             rate_hz,
             warm_start,
+            warm_mu,
+            warm_mu_factor,
             out,
             scenario,
             vehicle,
@@ -250,6 +259,9 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 rate_hz,
                 out: out.clone(),
                 warm_start: warm_start == "on",
+                mu_match: planner::ip::MuMatch::parse(&warm_mu, warm_mu_factor).ok_or_else(
+                    || format!("--warm-mu-factor {warm_mu_factor}: must be finite and > 0"),
+                )?,
             };
             let summary = record_oval(&opts, |i, ms, status| {
                 errln!("plan {i:3}: {status} in {ms:.1} ms");

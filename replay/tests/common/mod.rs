@@ -30,6 +30,7 @@ pub fn record(out: &Path, plans: usize) {
         rate_hz: 10.0,
         out: out.to_path_buf(),
         warm_start: false,
+        mu_match: planner::ip::MuMatch::DEFAULT,
     };
     let s = record_oval(&opts, |_, _, _| {}).unwrap();
     assert_eq!(s.stats.inputs, plans as u64);

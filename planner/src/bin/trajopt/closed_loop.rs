@@ -76,6 +76,14 @@ pub struct ClosedLoopArgs {
     /// --warm-start`; docs/solver.md); `off` starts every plan from the cold guess.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     warm_start: String,
+    /// How a warm start's first barrier parameter is matched to the shifted point:
+    /// geometric or mean (`planner_proc --warm-mu`).
+    #[arg(long, default_value = "geometric", value_parser = ["geometric", "mean"])]
+    warm_mu: String,
+    /// Multiple of the geometric mean for `--warm-mu geometric` (`planner_proc
+    /// --warm-mu-factor`).
+    #[arg(long, default_value_t = 30.0)]
+    warm_mu_factor: f64,
     /// Lane margin of a relaxed plan [m] (`planner_proc --relaxed-margin-m`): after a
     /// cycle without a plan of its own, the next cycles on a closed road plan with the tire
     /// saturation bound `--relaxed-saturation` and this margin.
@@ -286,6 +294,10 @@ fn spawn_pair(
         .arg(&args.warm_start)
         .arg("--cold-guess")
         .arg(&args.cold_guess)
+        .arg("--warm-mu")
+        .arg(&args.warm_mu)
+        .arg("--warm-mu-factor")
+        .arg(args.warm_mu_factor.to_string())
         .arg("--friction-scale")
         .arg(args.friction_scale.to_string())
         .arg("--relaxed-margin-m")

@@ -32,7 +32,7 @@ use super::workspace::Workspace;
 use best::{BestIterate, StallWatch};
 use clock::{Clock, OutOfTime, Phase};
 use restoration::Restoration;
-pub use warm::WarmStart;
+pub use warm::{MuMatch, WarmStart};
 
 /// Error constructing a solver.
 #[derive(Debug, thiserror::Error)]
@@ -232,7 +232,7 @@ impl<K: KktSolver> Solver<K> {
         self.save_best();
         let mut st = self.loop_state();
         if let (true, Some(w)) = (warmed, warm) {
-            st.mu = self.matched_mu(w.mu_floor);
+            st.mu = self.matched_mu(w.mu_floor, w.mu_match);
         }
 
         let status = loop {

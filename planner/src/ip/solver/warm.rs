@@ -5,16 +5,70 @@
 //! The primal point is the NLP's `initial_point`, pushed into the relaxed bounds as in a
 //! cold start (`start`). The bound multipliers are the given ones, floored at
 //! [`Z_FLOOR`] so that every complementarity pair stays strictly interior; y is taken as
-//! given (a non-finite entry as 0). The barrier parameter of the first iteration is the average complementarity of
-//! the pairs at that point, mu = (1 / n_c) sum_i s_i z_i, clipped to
+//! given (a non-finite entry as 0). The barrier parameter of the first iteration is matched
+//! to the complementarity of the pairs at that point ([`MuMatch`]), clipped to
 //! \[`WarmStart::mu_floor`, `Settings::mu_init`\]: a barrier problem whose central path
 //! passes near the starting point, so the first Newton steps do not have to re-centre it.
+//!
+//! After a shift the products s_i z_i spread over many orders of magnitude, and their mean
+//! is set by the few largest: a row whose bound lies far from the shifted point keeps the
+//! multiplier of the active row it was shifted from (node 0's rows under a fixed start,
+//! bound 1e3, take node 1's: s z up to 30 against a typical 1e-5), and one such pair puts
+//! the mean 100 times above the typical pair. The geometric mean,
+//! exp((1 / n_c) sum_i ln(s_i z_i)), is the typical pair's, whatever a few outliers hold;
+//! [`MuMatch::Geometric`] starts a factor above it, so that the first steps also pull the
+//! pairs below it back toward the central path (docs/performance.md, "The warm start's
+//! barrier parameter").
 
 use super::Solver;
 use crate::ip::kkt::KktSolver;
 
 /// Smallest bound multiplier a warm start keeps.
 const Z_FLOOR: f64 = 1e-10;
+
+/// How the first barrier parameter of a warm start is matched to its starting point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MuMatch {
+    /// The average complementarity, (1 / n_c) sum_i s_i z_i.
+    Mean,
+    /// `factor` times the geometric mean of the complementarity products.
+    Geometric {
+        /// Multiple of the geometric mean (> 0).
+        factor: f64,
+    },
+}
+
+impl MuMatch {
+    /// The rule warm-started replans use: 30 times the geometric mean (the factor is
+    /// measured in docs/performance.md).
+    pub const DEFAULT: Self = Self::Geometric { factor: 30.0 };
+
+    /// The rule's name as recordings and options spell it (`mean`, `geometric`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Mean => "mean",
+            Self::Geometric { .. } => "geometric",
+        }
+    }
+
+    /// The rule `name` with `factor` (ignored for `mean`); `None` for an unknown name or a
+    /// factor that is not finite and positive.
+    pub fn parse(name: &str, factor: f64) -> Option<Self> {
+        match name {
+            "mean" => Some(Self::Mean),
+            "geometric" if factor.is_finite() && factor > 0.0 => Some(Self::Geometric { factor }),
+            _ => None,
+        }
+    }
+
+    /// The factor (1 for `mean`).
+    pub fn factor(&self) -> f64 {
+        match self {
+            Self::Mean => 1.0,
+            Self::Geometric { factor } => *factor,
+        }
+    }
+}
 
 /// The multipliers a warm-started solve begins with, in the solver's ordering: y over the
 /// m constraint rows, z_l and z_u over the n + m entries of w = (x, s) (entries without a
@@ -29,6 +83,8 @@ pub struct WarmStart<'a> {
     pub zu: &'a [f64],
     /// Lower clip of the matched barrier parameter.
     pub mu_floor: f64,
+    /// How the barrier parameter is matched to the starting point.
+    pub mu_match: MuMatch,
 }
 
 impl<K: KktSolver> Solver<K> {
@@ -59,22 +115,32 @@ impl<K: KktSolver> Solver<K> {
         true
     }
 
-    /// The barrier parameter matched to the current point: its average complementarity,
-    /// clipped to \[`mu_floor`, `mu_init`\].
-    pub(super) fn matched_mu(&self, mu_floor: f64) -> f64 {
+    /// The barrier parameter matched to the current point by `rule`, clipped to
+    /// \[`mu_floor`, `mu_init`\]. Allocates nothing.
+    pub(super) fn matched_mu(&self, mu_floor: f64, rule: MuMatch) -> f64 {
         let ws = &self.ws;
+        // The products are positive: slacks are interior after the start's push and bound
+        // multipliers floored at Z_FLOOR; the floor below keeps ln finite regardless.
+        let term = |p: f64| match rule {
+            MuMatch::Mean => p,
+            MuMatch::Geometric { .. } => p.max(f64::MIN_POSITIVE).ln(),
+        };
         let (mut sum, mut count) = (0.0, 0usize);
         for j in 0..ws.n + ws.m {
             if ws.has_lo[j] {
-                sum += (ws.w[j] - ws.lo[j]) * ws.zl[j];
+                sum += term((ws.w[j] - ws.lo[j]) * ws.zl[j]);
                 count += 1;
             }
             if ws.has_hi[j] {
-                sum += (ws.hi[j] - ws.w[j]) * ws.zu[j];
+                sum += term((ws.hi[j] - ws.w[j]) * ws.zu[j]);
                 count += 1;
             }
         }
-        let avg = if count > 0 { sum / count as f64 } else { 0.0 };
+        let avg = match (count, rule) {
+            (0, _) => 0.0,
+            (_, MuMatch::Mean) => sum / count as f64,
+            (_, MuMatch::Geometric { factor }) => factor * (sum / count as f64).exp(),
+        };
         let s = self.settings;
         let lo = mu_floor.max(s.mu_min);
         let hi = s.mu_init.max(lo);

@@ -255,6 +255,12 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
             "--lane-margin-m must be >= 0".into(),
         ));
     }
+    if !(0.0..=0.9).contains(&args.min_path_scale) {
+        return Err(PlannerProcError::Setup(format!(
+            "--min-path-scale {} must lie in [0, 0.9]",
+            args.min_path_scale
+        )));
+    }
     if args.relaxed_margin_m.is_nan() || args.relaxed_margin_m < 0.0 {
         return Err(PlannerProcError::Setup(format!(
             "--relaxed-margin-m {}: must be >= 0",
@@ -299,6 +305,7 @@ impl PlannerLoop {
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         sc.spec.vehicle.scale_grip(args.friction_scale);
         soft_lane::setup(&mut sc, args)?;
+        sc.road = sc.road.clone().with_min_path_scale(args.min_path_scale);
         sc.road.check_margin(args.lane_margin_m).map_err(|e| {
             PlannerProcError::Setup(format!(
                 "--lane-margin-m on {}: {e}",

@@ -97,6 +97,8 @@ pub struct ClosedRoad {
     obstacles: Vec<BoundsOverride>,
     /// How far the planner's obstacle bounds reach past each obstacle's s interval \[m\].
     reach: f64,
+    /// Smallest arc-length scale 1 - kappa e the planner's lane allows (0: the edges).
+    min_scale: f64,
 }
 
 impl ClosedRoad {
@@ -112,6 +114,7 @@ impl ClosedRoad {
             closed: true,
             obstacles: Vec::new(),
             reach: 0.0,
+            min_scale: 0.0,
         }
     }
 
@@ -124,6 +127,7 @@ impl ClosedRoad {
             closed: true,
             obstacles: Vec::new(),
             reach: 0.0,
+            min_scale: 0.0,
         }
     }
 
@@ -147,6 +151,7 @@ impl ClosedRoad {
             closed: false,
             obstacles,
             reach: 0.0,
+            min_scale: 0.0,
         }
     }
 
@@ -187,6 +192,22 @@ impl ClosedRoad {
     /// body is alongside the obstacle; 0 is the scenario's bound at the CG only).
     pub fn with_obstacle_reach(mut self, reach: f64) -> Self {
         self.reach = reach;
+        self
+    }
+
+    /// The road with the planner's lane kept where the road frame's arc-length scale
+    /// 1 - kappa e is at least `min_scale` (0: the lane edges only).
+    ///
+    /// Past the centre of curvature the curvilinear model is singular (s_dot = V cos dpsi
+    /// / (1 - kappa e)); near it, a node's 2.5 m of centre line is a fraction of a metre
+    /// of the inside edge while the heading turns kappa ds, so the dynamics are stiff and a
+    /// car cutting the apex runs a heading of a radian to the centre line, where a small
+    /// error along the path is a large error in e. The bound e <= (1 - min_scale) / kappa
+    /// on the inside of a curve (e >= on the right of a right-hander) keeps the plans out
+    /// of that region. It ramps in over the start ramp like the lane margin, so a car
+    /// already inside it can still be planned for.
+    pub fn with_min_path_scale(mut self, min_scale: f64) -> Self {
+        self.min_scale = min_scale;
         self
     }
 
@@ -238,7 +259,7 @@ impl ClosedRoad {
     /// holds a node's road s replaces (intersects) that node's bounds, shrunk by the same
     /// margin, over the interval widened by the obstacle reach. Allocates nothing.
     pub fn window(&self, s0: f64, ds: f64, margin: f64, ramp: f64, out: &mut RoadWindow) {
-        self.window_with(s0, ds, out, |s| {
+        self.window_with(s0, (ds, ramp), out, |s| {
             let m = if ramp > 0.0 {
                 margin * (s / ramp).min(1.0)
             } else {
@@ -248,11 +269,12 @@ impl ClosedRoad {
         });
     }
 
-    /// The window with the (right, left) margin a function of the local s.
+    /// The window with the (right, left) margin a function of the local s, and the
+    /// path-scale bound ramped in over `ramp` metres.
     fn window_with(
         &self,
         s0: f64,
-        ds: f64,
+        (ds, ramp): (f64, f64),
         out: &mut RoadWindow,
         margin_at: impl Fn(f64) -> (f64, f64),
     ) {
@@ -273,6 +295,19 @@ impl ClosedRoad {
                 if o.s_from - self.reach <= s_road && s_road <= o.s_to + self.reach {
                     e_min[k] = e_min[k].max(o.e_min + mr);
                     e_max[k] = e_max[k].min(o.e_max - ml);
+                }
+            }
+            if self.min_scale > 0.0 && kappa[k] != 0.0 {
+                let w = if ramp > 0.0 {
+                    (k as f64 * ds / ramp).min(1.0)
+                } else {
+                    1.0
+                };
+                let e_scale = (1.0 - self.min_scale) / kappa[k];
+                if kappa[k] > 0.0 && e_scale < e_max[k] {
+                    e_max[k] = (e_max[k] + w * (e_scale - e_max[k])).max(e_min[k]);
+                } else if kappa[k] < 0.0 && e_scale > e_min[k] {
+                    e_min[k] = (e_min[k] + w * (e_scale - e_min[k])).min(e_max[k]);
                 }
             }
         }
@@ -313,7 +348,7 @@ impl ClosedRoad {
         let right0 = start(e0 - lo0, -e_dot);
         let left0 = start(hi0 - e0, e_dot);
         let length = ramp.length_m;
-        self.window_with(s0, ds, out, |s| {
+        self.window_with(s0, (ds, length), out, |s| {
             let w = if length > 0.0 {
                 (s / length).min(1.0)
             } else {
@@ -594,5 +629,39 @@ mod tests {
         };
         let e = e.to_string();
         assert!(e.contains("kappa_pieces"), "{e}");
+    }
+
+    /// On a left-hander of radius 10 m (lane +-8 m) and a right-hander after it, the
+    /// path-scale bound 0.5 keeps e <= 5 m on the inside of the left one and e >= -5 m on
+    /// the inside of the right one, past the 20 m ramp; it starts from the edge at node 0
+    /// and leaves the outside and the straights alone. Without it the window is the lane.
+    #[test]
+    fn the_path_scale_bound_keeps_plans_off_the_centre_of_curvature() {
+        let pieces = vec![(0.0, 0.0), (10.0, 0.1), (110.0, -0.1), (210.0, 0.0)];
+        let plain = ClosedRoad::new(pieces, 1000.0, -8.0, 8.0);
+        let bounded = plain.clone().with_min_path_scale(0.5);
+        let (mut a, mut b) = (RoadWindow::default(), RoadWindow::default());
+        plain.window(0.0, 2.5, 0.0, 20.0, &mut a);
+        bounded.window(0.0, 2.5, 0.0, 20.0, &mut b);
+        assert!(a.e_max.iter().all(|&e| e == 8.0) && a.e_min.iter().all(|&e| e == -8.0));
+        for k in 0..=HORIZON_N {
+            let s = k as f64 * 2.5;
+            let (lo, hi) = (b.e_min[k], b.e_max[k]);
+            if s > 20.0 && s < 110.0 {
+                assert!(
+                    (hi - 5.0).abs() < 1e-12 && lo == -8.0,
+                    "s {s}: [{lo}, {hi}]"
+                );
+            } else if s > 110.0 && s < 210.0 {
+                assert!((lo + 5.0).abs() < 1e-12 && hi == 8.0, "s {s}: [{lo}, {hi}]");
+            } else if !(10.0..=210.0).contains(&s) {
+                assert!(lo == -8.0 && hi == 8.0, "s {s}: [{lo}, {hi}]");
+            }
+            // Where the scale bound acts, 1 - kappa e >= 0.5 at the bound.
+            assert!(1.0 - b.kappa[k] * hi >= 0.5 - 1e-12 || s <= 20.0, "s {s}");
+            assert!(1.0 - b.kappa[k] * lo >= 0.5 - 1e-12 || s <= 20.0, "s {s}");
+        }
+        // The ramp: node 4 (10 m, half-way) is half-way between the edge and the bound.
+        assert!((b.e_max[4] - 6.5).abs() < 1e-12, "{}", b.e_max[4]);
     }
 }

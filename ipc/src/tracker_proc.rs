@@ -149,6 +149,8 @@ struct Track {
     n: u64,
     sum_e2: f64,
     max_e: f64,
+    /// Car's s where the largest lateral error occurred \[m\].
+    max_e_s: f64,
     sum_cross2: f64,
     max_cross: f64,
     max_beta: f64,
@@ -530,12 +532,17 @@ impl TrackerLoop {
             } else {
                 self.controller.control(&self.plan, &y)
             };
+            let mut e_plan = f64::NAN;
             let u = match control {
                 Some((u, r)) => {
+                    e_plan = r.x[ix::E];
                     let err = crate::tracker::errors(&car.plant.x, &r);
                     stats.n += 1;
                     stats.sum_e2 += err.e * err.e;
-                    stats.max_e = stats.max_e.max(err.e.abs());
+                    if err.e.abs() > stats.max_e {
+                        stats.max_e = err.e.abs();
+                        stats.max_e_s = car.plant.x[ix::S];
+                    }
                     stats.sum_cross2 += err.cross * err.cross;
                     stats.max_cross = stats.max_cross.max(err.cross.abs());
                     stats.max_beta = stats.max_beta.max(err.beta.abs());
@@ -555,7 +562,7 @@ impl TrackerLoop {
             };
             self.controller.applied(u[iu::DELTA]);
             car.drive(u, road, self.substeps, self.plant_dt);
-            self.log.step(&car.plant.x, road);
+            self.log.step(&car.plant.x, road, e_plan);
             stats.e_lo = stats.e_lo.min(car.plant.x[ix::E]);
             stats.e_hi = stats.e_hi.max(car.plant.x[ix::E]);
         }
@@ -651,6 +658,7 @@ impl TrackerLoop {
             "run_id": format!("{:#018x}", inbox.own.run_id()),
             "plans_not_converged": self.plans_not_converged,
             "max_lateral_error_m": stats.max_e,
+            "max_lateral_error_at_s_m": stats.max_e_s,
             "rms_lateral_error_m": rms,
             "max_cross_track_error_m": stats.max_cross,
             "rms_cross_track_error_m": rms_of(stats.sum_cross2),

@@ -399,7 +399,7 @@ fn logging_a_tracker_step_allocates_nothing() {
         for k in 0..20_000 {
             x[ix::T] = k as f64 * 0.001;
             x[ix::S] = 25.0 * x[ix::T];
-            log.step(&x, &sc.road);
+            log.step(&x, &sc.road, 0.0);
             if k % 100 == 0 {
                 log.plan(&plan, x[ix::S]);
             }

@@ -8,7 +8,7 @@ use crate::plan_log::{self, PlanLog};
 use plan_record::{first_difference, PlanOutput, PlanWarmStart, Recording};
 use planner::guess::GuessKind;
 use planner::plan::choice::PlanKind;
-use planner::plan::{Planner, WarmDuals, WarmOptions};
+use planner::plan::{shift_plan, Planner, WarmDuals, WarmOptions};
 use planner::record::{plan_output, problem_from, warm_from, RecordedStart};
 use serde::Serialize;
 
@@ -20,6 +20,7 @@ use crate::info::Recovered;
 use crate::stats::{latency, Latency, StatsError};
 use crate::validate::{orphan_line, validate};
 use crate::N;
+use planner::model::{NU, NX};
 
 /// How to replay.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,6 +36,10 @@ pub struct RunOptions {
     pub guess: Option<GuessKind>,
     /// The input whose solve is logged iteration by iteration ([`RunReport::plan_log`]).
     pub log_plan: Option<u64>,
+    /// Re-derive each warm start's primal guess from the recorded plan it shifts, with this
+    /// build's [`shift_plan`] ([`reshifted`]). A guess that comes out other than the
+    /// recorded one is compared with nothing.
+    pub reshift: bool,
 }
 
 impl Default for RunOptions {
@@ -45,6 +50,7 @@ impl Default for RunOptions {
             core: None,
             guess: None,
             log_plan: None,
+            reshift: false,
         }
     }
 }
@@ -300,6 +306,7 @@ fn replay_all(
     let mut sent = SentPlans::default();
     for input in &rec.inputs {
         let (spec, recorded_settings, recorded_start) = problem_from(input)?;
+        let ds = spec.ds();
         let start = opts.guess.map_or(recorded_start, RecordedStart::Guess);
         let settings = opts.budgets.apply(recorded_settings);
         if spec.n_intervals != N {
@@ -313,12 +320,19 @@ fn replay_all(
                 seq: input.seq,
                 source,
             })?;
-        // The recorded warm start is looked up before the timed solve.
-        let prepared = prepare(rec, input.seq, start)?;
+        // The recorded warm start is looked up (and re-shifted) before the timed solve.
+        let mut prepared = prepare(rec, input.seq, start)?;
+        let mut same_start = start == recorded_start;
+        if opts.reshift {
+            if let Prepared::Warm(w, _, _, guess) = &mut prepared {
+                *guess = reshifted(rec, input, w, ds);
+                same_start &= guess.as_ref().is_none_or(|g| g.matches(w));
+            }
+        }
         // Where the logged plan starts, taken before the solve consumes its start.
         let log_from = (opts.log_plan == Some(input.seq)).then(|| prepared.log_start());
         let t0 = Instant::now();
-        let info = solve(&mut planner, input.seq, prepared)?;
+        let info = solve(&mut planner, input.seq, &prepared)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let replayed = plan_output(input.seq, 0, &info, planner.states(), planner.controls());
         // A solve stopped by other caps than the recorded ones, or by a clock, is compared
@@ -328,7 +342,7 @@ fn replay_all(
             || output.is_some_and(|r| recorded_stopped_by_clock(r, &recorded_settings));
         let recorded = output
             .filter(|r| comparable((&info, &settings), (r, &recorded_settings)))
-            .filter(|_| start == recorded_start && !clock_limited);
+            .filter(|_| same_start && !clock_limited);
         let difference = recorded.and_then(|r| first_difference(r, &replayed));
         results.push(PlanResult {
             seq: input.seq,
@@ -361,17 +375,78 @@ fn replay_all(
 }
 
 /// Where a replayed solve starts: a guess, or a recorded warm start with its options and
-/// multipliers.
+/// multipliers (and, re-shifted, its own primal guess).
 enum Prepared<'a> {
     Guess(GuessKind),
-    Warm(&'a PlanWarmStart, WarmOptions, WarmDuals<'a>),
+    Warm(
+        &'a PlanWarmStart,
+        WarmOptions,
+        WarmDuals<'a>,
+        Option<ShiftedGuess>,
+    ),
+}
+
+/// A primal guess re-derived by this build's shift.
+struct ShiftedGuess {
+    states: Vec<[f64; NX]>,
+    controls: Vec<[f64; NU]>,
+}
+
+impl ShiftedGuess {
+    /// Whether this guess is the recorded one, bit for bit.
+    fn matches(&self, w: &PlanWarmStart) -> bool {
+        let bits = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        self.states.len() == w.states.len()
+            && self.controls.len() == w.controls.len()
+            && self.states.iter().zip(&w.states).all(|(a, b)| bits(a, b))
+            && self
+                .controls
+                .iter()
+                .zip(&w.controls)
+                .all(|(a, b)| bits(a, b))
+    }
+}
+
+/// The warm start of `input` re-derived from the plan it shifts: the latest recorded output
+/// before it that ended `optimal` or `acceptable` (the planner's warm source), shifted by
+/// the recorded `shift_m` to the input's initial state with this build's [`shift_plan`].
+/// `None` when no such output was recorded (the warm start then came from a failed solve).
+fn reshifted(
+    rec: &Recording,
+    input: &plan_record::PlanInput,
+    w: &PlanWarmStart,
+    ds: f64,
+) -> Option<ShiftedGuess> {
+    let source = rec
+        .outputs
+        .iter()
+        .filter(|o| o.seq < input.seq && matches!(o.status.as_str(), "optimal" | "acceptable"))
+        .max_by_key(|o| o.seq)?;
+    if source.states.len() != N + 1 || source.controls.len() != N {
+        return None;
+    }
+    let mut g = ShiftedGuess {
+        states: vec![[0.0; NX]; N + 1],
+        controls: vec![[0.0; NU]; N],
+    };
+    shift_plan(
+        &source.states,
+        &source.controls,
+        ds,
+        w.shift_m,
+        &input.x0,
+        &mut g.states,
+        &mut g.controls,
+    );
+    Some(g)
 }
 
 impl<'a> Prepared<'a> {
     /// The start as the plan log reads it: the warm start's primal guess, or the guess.
-    fn log_start(&self) -> plan_log::Start<'a> {
+    fn log_start(&'a self) -> plan_log::Start<'a> {
         match self {
             Prepared::Guess(kind) => plan_log::Start::Cold(*kind),
+            Prepared::Warm(_, _, _, Some(g)) => plan_log::Start::Warm(&g.states, &g.controls),
             Prepared::Warm(w, ..) => plan_log::Start::Warm(&w.states, &w.controls),
         }
     }
@@ -386,7 +461,7 @@ fn prepare(rec: &Recording, seq: u64, start: RecordedStart) -> Result<Prepared<'
                 .warm_start(seq)
                 .ok_or(ReplayError::MissingWarmStart { seq })?;
             let (opts, duals) = warm_from(w)?;
-            Ok(Prepared::Warm(w, opts, duals))
+            Ok(Prepared::Warm(w, opts, duals, None))
         }
     }
 }
@@ -395,14 +470,21 @@ fn prepare(rec: &Recording, seq: u64, start: RecordedStart) -> Result<Prepared<'
 fn solve(
     planner: &mut Planner<N>,
     seq: u64,
-    start: Prepared<'_>,
+    start: &Prepared<'_>,
 ) -> Result<planner::ip::SolveInfo, ReplayError> {
     match start {
-        Prepared::Guess(guess) => Ok(planner.solve(guess)),
-        Prepared::Warm(w, opts, duals) => planner
-            .solve_warm_from((&w.states, &w.controls), duals, opts)
-            .map(|r| r.info)
-            .map_err(|source| ReplayError::Plan { seq, source }),
+        Prepared::Guess(guess) => Ok(planner.solve(*guess)),
+        Prepared::Warm(w, opts, duals, guess) => {
+            let primal = guess
+                .as_ref()
+                .map_or((&w.states[..], &w.controls[..]), |g| {
+                    (&g.states[..], &g.controls[..])
+                });
+            planner
+                .solve_warm_from(primal, *duals, *opts)
+                .map(|r| r.info)
+                .map_err(|source| ReplayError::Plan { seq, source })
+        }
     }
 }
 

@@ -103,6 +103,41 @@ fn warm_started_plans_replay_bit_identically_with_their_fall_back() {
     assert!(its[1..5].iter().all(|&i| i < its[0]), "{its:?}");
 }
 
+/// `--reshift` re-derives each warm guess from the recorded plan it shifts: on an
+/// untouched recording it reproduces every recorded guess bit for bit (so every plan is
+/// still compared and identical); with the recorded guesses moved 0.3 m sideways it solves
+/// from the re-derived guesses all the same (the iterations of the untouched replay) and
+/// compares the warm plans with nothing, since their recorded guesses are not what it
+/// solved from.
+#[test]
+fn a_reshifted_replay_rederives_each_warm_guess_from_the_plan_it_shifts() {
+    let d = common::temp_dir("warm_reshift");
+    let rec = drive(&d.join("warm.mcap"));
+    let reshift = RunOptions {
+        reshift: true,
+        ..RunOptions::default()
+    };
+    let r = run(&rec, reshift).unwrap();
+    assert_eq!((r.identical, r.different, r.unverified), (6, 0, 0), "{r}");
+    let mut spoiled = rec.clone();
+    for w in &mut spoiled.warm_starts {
+        for x in &mut w.states[1..] {
+            x[ix::E] += 0.3;
+        }
+    }
+    let plain = run(&spoiled, RunOptions::default()).unwrap();
+    let its =
+        |r: &replay::run::RunReport| r.per_plan.iter().map(|p| p.iterations).collect::<Vec<_>>();
+    assert_ne!(
+        its(&plain),
+        its(&r),
+        "the spoiled guesses must change the plain replay"
+    );
+    let again = run(&spoiled, reshift).unwrap();
+    assert_eq!(its(&again), its(&r));
+    assert_eq!((again.identical, again.unverified), (1, 5), "{again}");
+}
+
 #[test]
 fn a_warm_input_without_its_warm_start_is_refused_by_seq() {
     let d = common::temp_dir("warm_missing");

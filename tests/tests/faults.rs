@@ -357,7 +357,7 @@ fn bad_states_are_counted_and_never_planned_from() {
 /// road cannot have, are refused before any IPC, with exit code 2 and the option named.
 #[test]
 fn options_that_would_hang_or_panic_are_refused_by_name() {
-    let cases: [(&str, &[&str], &str); 13] = [
+    let cases: [(&str, &[&str], &str); 15] = [
         ("tracker_proc", &["--plant-dt-s", "1e-9"], "--plant-dt-s"),
         (
             "tracker_proc",
@@ -376,6 +376,16 @@ fn options_that_would_hang_or_panic_are_refused_by_name() {
             "--gap-s",
         ),
         ("planner_proc", &["--rate-hz", "0"], "--rate-hz"),
+        (
+            "planner_proc",
+            &["--min-path-scale", "0.95"],
+            "--min-path-scale",
+        ),
+        (
+            "planner_proc",
+            &["--min-path-scale", "NaN"],
+            "--min-path-scale",
+        ),
         (
             "planner_proc",
             &["--friction-scale", "0.2"],

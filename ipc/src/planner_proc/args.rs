@@ -55,6 +55,12 @@ pub struct PlannerArgs {
     /// Lane margin the plan keeps from each edge [m] (room for tracking error).
     #[arg(long, default_value_t = 0.5)]
     pub lane_margin_m: f64,
+    /// Smallest arc-length scale 1 - kappa e of the road frame a plan may use, in [0, 0.9]
+    /// (0: the lane edges only; `ClosedRoad::with_min_path_scale`): keeps the plans out
+    /// of the stiff, near-singular part of the curvilinear model on the inside of a
+    /// curve whose centre of curvature lies close to the edge (Austin's turn 1).
+    #[arg(long, default_value_t = 0.0)]
+    pub min_path_scale: f64,
     /// Lane margin of a relaxed plan [m] (capped at --lane-margin-m): after a cycle without a
     /// plan of its own, the next cycles on a closed road plan with this margin and the tire
     /// saturation bound --relaxed-saturation (docs/closed-loop.md). 0.6 m leaves the

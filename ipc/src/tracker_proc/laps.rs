@@ -24,8 +24,9 @@ pub const TRACE_DT_S: f64 = 0.01;
 /// Plans logged per second of the run's cap (twice the default 10 Hz, room for 20 Hz).
 const PLANS_PER_S: f64 = 20.0;
 
-/// One row of the driven trace: t, s, e, V, beta, dpsi.
-pub type TraceRow = [f64; 6];
+/// One row of the driven trace: t, s, e, V, beta, dpsi, and the plan's e at the car (NaN
+/// while the car drives without a plan).
+pub type TraceRow = [f64; 7];
 
 /// One logged plan: where the car was, the plan's origin and grid, its status and solve
 /// time, and its node speeds and lateral offsets.
@@ -101,8 +102,9 @@ impl RunLog {
         }
     }
 
-    /// Logs the plant state after one control step. Allocates nothing.
-    pub fn step(&mut self, x: &[f64; NX], road: &ClosedRoad) {
+    /// Logs the plant state after one control step, with the plan's lateral offset
+    /// `e_plan` at the car (NaN without a plan). Allocates nothing.
+    pub fn step(&mut self, x: &[f64; NX], road: &ClosedRoad, e_plan: f64) {
         let s = x[ix::S];
         let (lo, hi) = road.edges(s);
         let e = x[ix::E];
@@ -124,7 +126,7 @@ impl RunLog {
         }
         if x[ix::T] + 1e-9 >= self.next_trace_t && self.trace.len() < self.trace.capacity() {
             self.trace
-                .push([x[ix::T], s, e, x[ix::V], x[ix::BETA], x[ix::DPSI]]);
+                .push([x[ix::T], s, e, x[ix::V], x[ix::BETA], x[ix::DPSI], e_plan]);
             self.next_trace_t += TRACE_DT_S;
         }
     }
@@ -208,16 +210,20 @@ impl RunLog {
         })
     }
 
-    /// Writes `driven.csv` (t, s, e, V, beta, dpsi every 10 ms) and `plans.csv` (one row
+    /// Writes `driven.csv` (t, s, e, V, beta, dpsi and the plan's e every 10 ms) and `plans.csv` (one row
     /// per plan taken: car s, origin, grid, status, kind sent, solve time, node speeds
     /// v0..v100, node lateral offsets e0..e100) into `dir`, each file whole or not at all.
     pub fn write(&self, dir: &Path) -> Result<(), String> {
         use std::io::Write;
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         planner::io::write_atomic(&dir.join("driven.csv"), |w| {
-            writeln!(w, "t_s,s_m,e_m,v_mps,beta_rad,dpsi_rad")?;
+            writeln!(w, "t_s,s_m,e_m,v_mps,beta_rad,dpsi_rad,e_plan_m")?;
             for r in &self.trace {
-                writeln!(w, "{},{},{},{},{},{}", r[0], r[1], r[2], r[3], r[4], r[5])?;
+                writeln!(
+                    w,
+                    "{},{},{},{},{},{},{}",
+                    r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                )?;
             }
             Ok(())
         })
@@ -273,7 +279,7 @@ mod tests {
             x[ix::T] = i as f64 * 0.01;
             x[ix::S] = 90.0 + 10.0 * x[ix::T];
             x[ix::E] = 3.0;
-            log.step(&x, &road);
+            log.step(&x, &road, 0.0);
         }
         let laps = log.lap_times();
         assert_eq!(laps.len(), 2);
@@ -310,7 +316,7 @@ mod tests {
             } else {
                 v0 * v0 / (2.0 * a)
             };
-            log.step(&x, &road);
+            log.step(&x, &road, 0.0);
         }
         let j = log.json();
         assert_eq!(j["obstacles_cleared"], false, "{j}");
@@ -348,7 +354,7 @@ mod tests {
         for i in 0..3000 {
             x[ix::T] = i as f64 * 0.001;
             x[ix::S] = 20.0 * x[ix::T];
-            log.step(&x, &road);
+            log.step(&x, &road, 0.0);
         }
         let j = log.json();
         assert_eq!(j["obstacles_cleared"], true, "{j}");

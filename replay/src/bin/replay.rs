@@ -60,6 +60,11 @@ enum Command {
         /// most at its start and end (after the summary; `plan_log` in the JSON).
         #[arg(long, value_name = "SEQ")]
         log_plan: Option<u64>,
+        /// Re-derive each warm start's primal guess from the recorded plan it shifts, with
+        /// this build's shift (to measure a change to the shift on a recording; a guess
+        /// other than the recorded one is compared with no recorded output).
+        #[arg(long)]
+        reshift: bool,
     },
     /// Summarise a recording: channels, counts, duration, drops.
     Info {
@@ -175,6 +180,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             per_plan,
             plot,
             log_plan,
+            reshift,
         } => {
             let rec = read(&file)?;
             let opts = RunOptions {
@@ -186,6 +192,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 core,
                 guess: guess.as_deref().and_then(GuessKind::parse),
                 log_plan,
+                reshift,
             };
             let report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
             if let Some(png) = &plot {

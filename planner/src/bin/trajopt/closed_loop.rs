@@ -93,6 +93,10 @@ pub struct ClosedLoopArgs {
     /// an edge [m] (`planner_proc --margin-ramp-m`; default 20).
     #[arg(long)]
     margin_ramp_m: Option<f64>,
+    /// Smallest arc-length scale 1 - kappa e of the road frame a plan may use
+    /// (`planner_proc --min-path-scale`; 0: the lane edges only).
+    #[arg(long, default_value_t = 0.0)]
+    min_path_scale: f64,
     /// Closest to an edge that ramp starts for a car moving toward the edge [m]
     /// (`planner_proc --margin-floor-m`; default 0.3; negative: past the edge).
     #[arg(long, allow_hyphen_values = true)]
@@ -302,6 +306,8 @@ fn spawn_pair(
         .arg(args.friction_scale.to_string())
         .arg("--relaxed-margin-m")
         .arg(args.relaxed_margin_m.to_string())
+        .arg("--min-path-scale")
+        .arg(args.min_path_scale.to_string())
         .arg("--relaxed-cycles")
         .arg(args.relaxed_cycles.to_string())
         .arg("--relaxed-saturation")
@@ -433,6 +439,7 @@ fn summary_json(
         "max_lateral_error_m": f("max_lateral_error_m"),
         "rms_lateral_error_m": f("rms_lateral_error_m"),
         "max_cross_track_error_m": f("max_cross_track_error_m"),
+        "max_lateral_error_at_s_m": f("max_lateral_error_at_s_m"),
         "rms_cross_track_error_m": f("rms_cross_track_error_m"),
         "max_sideslip_error_rad": f("max_sideslip_error_rad"),
         "lane_kept": f("lane_kept"),

@@ -37,7 +37,8 @@ pub fn read(dir: &Path) -> Result<(Driven, Vec<PlanLine>), String> {
         .lines()
         .skip(1)
         .filter_map(numbers)
-        .filter_map(|v| <[f64; 6]>::try_from(v).ok())
+        // t, s, e, V, beta, dpsi (and, from trackers that log it, the plan's e).
+        .filter_map(|v| <[f64; 6]>::try_from(v.get(..6)?).ok())
         .collect();
     let plans = text("plans.csv")?
         .lines()

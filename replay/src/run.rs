@@ -36,9 +36,10 @@ pub struct RunOptions {
     pub guess: Option<GuessKind>,
     /// The input whose solve is logged iteration by iteration ([`RunReport::plan_log`]).
     pub log_plan: Option<u64>,
-    /// Re-derive each warm start's primal guess from the recorded plan it shifts, with this
-    /// build's [`shift_plan`] ([`reshifted`]). A guess that comes out other than the
-    /// recorded one is compared with nothing.
+    /// Re-derive each warm start's primal guess from the recorded plan it shifts (the
+    /// latest `optimal` or `acceptable` output before it), with this build's
+    /// [`shift_plan`]. A guess that comes out other than the recorded one is compared with
+    /// nothing.
     pub reshift: bool,
 }
 

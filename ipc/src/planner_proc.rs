@@ -103,7 +103,6 @@ impl Cycle {
 /// as its best iterate (so the cycle sends the previous plan shifted or the notice).
 const MIN_SOLVE_S: f64 = 1e-6;
 
-/// The options of a warm-started replan falling back to `cold`.
 /// `x` moved at least 1 mm (or m/s) inside [lo, hi]; the midpoint when the interval is
 /// narrower than that (never panics, unlike `clamp` on crossed bounds).
 fn nudge_into(x: f64, lo: f64, hi: f64) -> f64 {

@@ -260,11 +260,7 @@ impl ClosedRoad {
     /// margin, over the interval widened by the obstacle reach. Allocates nothing.
     pub fn window(&self, s0: f64, ds: f64, margin: f64, ramp: f64, out: &mut RoadWindow) {
         self.window_with(s0, (ds, ramp), out, |s| {
-            let m = if ramp > 0.0 {
-                margin * (s / ramp).min(1.0)
-            } else {
-                margin
-            };
+            let m = margin * ramp_weight(s, ramp);
             (m, m)
         });
     }
@@ -298,11 +294,7 @@ impl ClosedRoad {
                 }
             }
             if self.min_scale > 0.0 && kappa[k] != 0.0 {
-                let w = if ramp > 0.0 {
-                    (k as f64 * ds / ramp).min(1.0)
-                } else {
-                    1.0
-                };
+                let w = ramp_weight(k as f64 * ds, ramp);
                 let e_scale = (1.0 - self.min_scale) / kappa[k];
                 if kappa[k] > 0.0 && e_scale < e_max[k] {
                     e_max[k] = (e_max[k] + w * (e_scale - e_max[k])).max(e_min[k]);
@@ -349,13 +341,19 @@ impl ClosedRoad {
         let left0 = start(hi0 - e0, e_dot);
         let length = ramp.length_m;
         self.window_with(s0, (ds, length), out, |s| {
-            let w = if length > 0.0 {
-                (s / length).min(1.0)
-            } else {
-                1.0
-            };
+            let w = ramp_weight(s, length);
             (right0 + (margin - right0) * w, left0 + (margin - left0) * w)
         });
+    }
+}
+
+/// How far a ramp of `length` metres has come in at local s: s / length, capped at 1 (1
+/// at once for a ramp of no length).
+fn ramp_weight(s: f64, length: f64) -> f64 {
+    if length > 0.0 {
+        (s / length).min(1.0)
+    } else {
+        1.0
     }
 }
 

@@ -396,15 +396,11 @@ struct ShiftedGuess {
 impl ShiftedGuess {
     /// Whether this guess is the recorded one, bit for bit.
     fn matches(&self, w: &PlanWarmStart) -> bool {
-        let bits = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-        self.states.len() == w.states.len()
-            && self.controls.len() == w.controls.len()
-            && self.states.iter().zip(&w.states).all(|(a, b)| bits(a, b))
-            && self
-                .controls
-                .iter()
-                .zip(&w.controls)
-                .all(|(a, b)| bits(a, b))
+        let bits = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        bits(self.states.as_flattened(), w.states.as_flattened())
+            && bits(self.controls.as_flattened(), w.controls.as_flattened())
     }
 }
 

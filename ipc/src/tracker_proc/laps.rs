@@ -210,9 +210,10 @@ impl RunLog {
         })
     }
 
-    /// Writes `driven.csv` (t, s, e, V, beta, dpsi and the plan's e every 10 ms) and `plans.csv` (one row
-    /// per plan taken: car s, origin, grid, status, kind sent, solve time, node speeds
-    /// v0..v100, node lateral offsets e0..e100) into `dir`, each file whole or not at all.
+    /// Writes `driven.csv` (t, s, e, V, beta, dpsi and the plan's e every 10 ms) and
+    /// `plans.csv` (one row per plan taken: car s, origin, grid, status, kind sent, solve
+    /// time, node speeds v0..v100, node lateral offsets e0..e100) into `dir`, each file
+    /// whole or not at all.
     pub fn write(&self, dir: &Path) -> Result<(), String> {
         use std::io::Write;
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;

@@ -83,17 +83,17 @@ impl Cycle {
         true
     }
 
-    /// Switches the planner to the relaxed problem's saturation bound or back (the lane
-    /// margin comes with the road window); the bounds are recomputed only on a switch.
+    /// Switches the planner to the relaxed problem's saturation bound and grip or back (the
+    /// lane margin comes with the road window); the bounds are recomputed only on a switch.
     fn set_relaxed(&mut self, relaxed: bool) {
         if relaxed == self.relaxed_now {
             return;
         }
         self.relaxed_now = relaxed;
         let Some(r) = &self.relaxed else { return };
-        let eps = r.eps_sat[usize::from(relaxed)];
-        if let Err(e) = self.planner.set_saturation_bound(eps) {
-            elog!("planner: cannot set the saturation bound {eps}: {e}");
+        let limits = r.limits[usize::from(relaxed)];
+        if let Err(e) = self.planner.set_limits(limits) {
+            elog!("planner: cannot set the limits {limits:?}: {e}");
         }
     }
 }
@@ -290,6 +290,12 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
             args.friction_scale
         )));
     }
+    if !planner::model::GRIP_SCALES.contains(&args.relaxed_friction_scale) {
+        return Err(PlannerProcError::Setup(format!(
+            "--relaxed-friction-scale {}: must be in [0.5, 1]",
+            args.relaxed_friction_scale
+        )));
+    }
     Ok(())
 }
 
@@ -302,6 +308,9 @@ impl PlannerLoop {
         crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
         let mut sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
+        let mut relaxed_vehicle = sc.spec.vehicle;
+        relaxed_vehicle.eps_sat = args.relaxed_saturation;
+        relaxed_vehicle.scale_grip(args.relaxed_friction_scale);
         sc.spec.vehicle.scale_grip(args.friction_scale);
         soft_lane::setup(&mut sc, args)?;
         sc.road = sc.road.clone().with_min_path_scale(args.min_path_scale);
@@ -336,14 +345,14 @@ impl PlannerLoop {
         // its run tests.
         let relaxed = (args.relaxed_cycles > 0 && sc.road.is_closed()).then(|| {
             relaxed::Relaxed::new(
-                (sc.spec.vehicle.eps_sat, args.relaxed_saturation),
+                (sc.spec.vehicle.limits(), relaxed_vehicle.limits()),
                 args.relaxed_margin_m.min(args.lane_margin_m),
                 args.relaxed_cycles,
             )
         });
         let relaxed_spec = relaxed.as_ref().map(|r| {
             let mut spec = sc.spec.clone();
-            spec.vehicle.eps_sat = r.eps_sat[1];
+            spec.vehicle = spec.vehicle.with_limits(r.limits[1]);
             spec
         });
         let recorder = match &args.record {

@@ -312,7 +312,8 @@ fn the_tracker_step_with_mismatch_allocates_nothing() {
 
 /// Sampling a track's road window (profile lookups, varying bounds, the margin ramp from
 /// the car's position, the wrap at the lap's end), its soft lane and end-speed bound
-/// written into a planner, and the domain check of the start state allocate nothing.
+/// written into a planner, the relaxed plans' limits switched in and out, and the domain
+/// check of the start state allocate nothing.
 #[test]
 fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
     let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config"));
@@ -332,6 +333,10 @@ fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
     let ds = sc.ds();
     let mut spec = sc.spec.clone();
     spec.soft_lane = planner::ocp::SoftLane::new(10.0, spec.e_min.clone(), spec.e_max.clone());
+    let mut relaxed = spec.vehicle;
+    relaxed.eps_sat = 0.05;
+    spec.vehicle.scale_grip(0.9);
+    let limits = [spec.vehicle.limits(), relaxed.limits()];
     let mut planner = planner::plan::Planner::<HORIZON_N>::new(spec, sc.settings).unwrap();
     let env = ipc::road::envelope::SpeedEnvelope::new(&sc.road, 7.0, 6.0, 70.0).unwrap();
     let mut window = RoadWindow::default();
@@ -358,6 +363,7 @@ fn sampling_a_track_window_across_the_lap_end_allocates_nothing() {
             .unwrap();
         window.v_end_max = env.at(s + HORIZON_N as f64 * ds);
         planner.set_end_speed_cap(window.v_end_max).unwrap();
+        planner.set_limits(limits[k % 2]).unwrap();
         sc.spec
             .initial_domain(&window.kappa, &window.e_min, &window.e_max)
             .check(&x0)

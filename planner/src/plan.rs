@@ -246,6 +246,19 @@ impl<const N: usize> Planner<N> {
             .map_err(|e| PlanError::Spec(e.into()))
     }
 
+    /// Sets the saturation bound and the grip of the following solves
+    /// ([`crate::model::Limits`]) in place, without changing the constraint structure, so a
+    /// warm start carries over. The next cold start recomputes its equilibrium guess with
+    /// the new grip. Allocates nothing; refused limits leave the planner as it was.
+    pub fn set_limits(&mut self, limits: crate::model::Limits) -> Result<(), PlanError> {
+        self.nlp
+            .set_limits(limits)
+            .map_err(|e| PlanError::Spec(e.into()))?;
+        // A speed no state has: the next cold replan rebuilds the equilibrium.
+        self.v_start = f64::NAN;
+        Ok(())
+    }
+
     /// Sets the soft lane bounds of the following solves ([`crate::ocp::SoftLane`]; the
     /// spec's soft lane must be on) in place, one per node. Allocates nothing; a refused
     /// input (wrong length, not finite, soft lane off) leaves the planner as it was.

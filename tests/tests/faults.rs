@@ -357,7 +357,7 @@ fn bad_states_are_counted_and_never_planned_from() {
 /// road cannot have, are refused before any IPC, with exit code 2 and the option named.
 #[test]
 fn options_that_would_hang_or_panic_are_refused_by_name() {
-    let cases: [(&str, &[&str], &str); 15] = [
+    let cases: [(&str, &[&str], &str); 17] = [
         ("tracker_proc", &["--plant-dt-s", "1e-9"], "--plant-dt-s"),
         (
             "tracker_proc",
@@ -395,6 +395,16 @@ fn options_that_would_hang_or_panic_are_refused_by_name() {
             "planner_proc",
             &["--friction-scale", "NaN"],
             "--friction-scale",
+        ),
+        (
+            "planner_proc",
+            &["--relaxed-friction-scale", "1.5"],
+            "--relaxed-friction-scale",
+        ),
+        (
+            "planner_proc",
+            &["--relaxed-friction-scale", "NaN"],
+            "--relaxed-friction-scale",
         ),
         (
             "planner_proc",

@@ -99,6 +99,12 @@ pub struct PlannerArgs {
     /// vehicle file's eps_sat).
     #[arg(long, default_value_t = 0.05)]
     pub relaxed_saturation: f64,
+    /// Fraction of the vehicle file's friction and brake torques a relaxed plan uses (0.5
+    /// to 1, at least --friction-scale): a car that no plan at --friction-scale can
+    /// recover spends the grip the nominal plans leave over on its recovery
+    /// (docs/closed-loop.md).
+    #[arg(long, default_value_t = 1.0)]
+    pub relaxed_friction_scale: f64,
     /// Relaxed cycles in a row that sent their own plan before the nominal problem resumes
     /// (0: never relax).
     #[arg(long, default_value_t = 10)]

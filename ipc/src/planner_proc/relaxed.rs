@@ -14,25 +14,34 @@
 //!   friction limit, so no grip is invented: the plan may only let a tire slide a little
 //!   past its peak, as the car already does;
 //! - the lane margin shrinks from `--lane-margin-m` to `--relaxed-margin-m`, so the plan
-//!   may use the room the margin keeps for tracking errors.
+//!   may use the room the margin keeps for tracking errors;
+//! - the grip rises from `--friction-scale` to `--relaxed-friction-scale` (by default the
+//!   vehicle file's full friction and brake torques): the grip a nominal plan leaves over
+//!   is the tracker's authority to correct errors, and a car the errors have already put
+//!   where no plan at the reduced grip exists needs that authority spent on its recovery.
+//!   A minimum-time plan rides its grip and its lane bound together, so a small error in
+//!   heading or speed there leaves the reduced-grip problem without a feasible point
+//!   (Austin at s = 2200 m, 39 m/s through a fast chicane, docs/closed-loop.md).
 //!
 //! Re-solving offline the 14 plans of a Montreal recording that failed into the hairpin,
 //! the relaxed problem solves 8 and the nominal one 1 (docs/performance.md). Dropping the saturation rows
 //! altogether solves a few more, but in closed loop its plans drift at 50 m/s (sideslip
 //! 0.3 rad) and spin the rear wheel up at the horizon's end. The nominal problem resumes
 //! after `hold` relaxed cycles in a row that sent their own plan. Both problems have the
-//! same rows and differ in bounds only, so one planner solves both, updated in place
-//! ([`planner::plan::Planner::set_saturation_bound`], the road window's margin), and a
+//! same rows and differ in bounds and grip only, so one planner solves both, updated in
+//! place ([`planner::plan::Planner::set_limits`], the road window's margin), and a
 //! relaxed solve warm-starts from the last good plan like a nominal one. Obstacle
 //! scenarios never relax (their constraints are what the run tests).
+
+use planner::model::Limits;
 
 use crate::elog;
 
 /// The relaxed problem's bounds and when the planner process solves it.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Relaxed {
-    /// Saturation bound eps_sat of a nominal and of a relaxed plan.
-    pub eps_sat: [f64; 2],
+    /// Saturation bound and grip of a nominal and of a relaxed plan.
+    pub limits: [Limits; 2],
     /// Lane margin of a relaxed plan \[m\].
     pub margin: f64,
     /// Relaxed cycles in a row that sent their own plan before the nominal problem resumes.
@@ -46,11 +55,19 @@ pub(super) struct Relaxed {
 }
 
 impl Relaxed {
-    /// Relaxed plans with the saturation bound `relaxed` (at least the vehicle's
-    /// `nominal`) and a lane margin of `margin`, `hold` cycles per episode.
-    pub fn new((nominal, relaxed): (f64, f64), margin: f64, hold: u32) -> Self {
+    /// Relaxed plans with the limits `relaxed` (a saturation bound and a grip, each at
+    /// least the `nominal` plans') and a lane margin of `margin`, `hold` cycles per
+    /// episode.
+    pub fn new((nominal, relaxed): (Limits, Limits), margin: f64, hold: u32) -> Self {
+        // More grip is a larger mu and more negative brake torque limits.
+        let relaxed = Limits {
+            eps_sat: relaxed.eps_sat.max(nominal.eps_sat),
+            mu: relaxed.mu.max(nominal.mu),
+            t_bf_min: relaxed.t_bf_min.min(nominal.t_bf_min),
+            t_comb_min: relaxed.t_comb_min.min(nominal.t_comb_min),
+        };
         Self {
-            eps_sat: [nominal, relaxed.max(nominal)],
+            limits: [nominal, relaxed],
             margin,
             hold,
             left: 0,
@@ -75,9 +92,10 @@ impl Relaxed {
                 self.episodes += 1;
                 if self.episodes <= 10 || self.episodes.is_multiple_of(100) {
                     elog!(
-                        "planner: no plan of its own at s = {s_car:.1} m: the next {} cycles plan relaxed (saturation bound {}, lane margin {} m; {} times so far)",
+                        "planner: no plan of its own at s = {s_car:.1} m: the next {} cycles plan relaxed (saturation bound {}, friction {:.3}, lane margin {} m; {} times so far)",
                         self.hold,
-                        self.eps_sat[1],
+                        self.limits[1].eps_sat,
+                        self.limits[1].mu,
                         self.margin,
                         self.episodes
                     );
@@ -96,14 +114,30 @@ impl Relaxed {
 mod tests {
     use super::*;
 
+    fn limits(eps_sat: f64, grip: f64) -> Limits {
+        Limits {
+            eps_sat,
+            mu: 1.0 * grip,
+            t_bf_min: -5000.0 * grip,
+            t_comb_min: -3000.0 * grip,
+        }
+    }
+
     fn relaxed(hold: u32) -> Relaxed {
-        Relaxed::new((0.01, 0.05), 0.2, hold)
+        Relaxed::new((limits(0.01, 0.9), limits(0.05, 1.0)), 0.2, hold)
     }
 
     #[test]
     fn a_relaxed_bound_below_the_vehicles_keeps_the_vehicles() {
-        assert_eq!(Relaxed::new((0.01, 0.005), 0.2, 3).eps_sat, [0.01, 0.01]);
-        assert_eq!(relaxed(3).eps_sat, [0.01, 0.05]);
+        let r = Relaxed::new((limits(0.01, 0.9), limits(0.005, 1.0)), 0.2, 3);
+        assert_eq!(r.limits[1].eps_sat, 0.01);
+        assert_eq!(relaxed(3).limits, [limits(0.01, 0.9), limits(0.05, 1.0)]);
+    }
+
+    #[test]
+    fn a_relaxed_grip_below_the_nominal_one_keeps_the_nominal_one() {
+        let r = Relaxed::new((limits(0.01, 0.9), limits(0.05, 0.8)), 0.2, 3);
+        assert_eq!(r.limits[1], limits(0.05, 0.9));
     }
 
     #[test]

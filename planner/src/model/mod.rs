@@ -7,7 +7,7 @@ pub mod params;
 pub mod tire;
 
 pub use dynamics::{spatial_derivatives, time_derivatives, TimeDerivatives};
-pub use params::{ParamError, VehicleParams, GRIP_SCALES};
+pub use params::{Limits, ParamError, VehicleParams, GRIP_SCALES};
 pub use tire::{saturation, tire_forces, TireForces};
 
 /// Number of states x = [r, V, beta, V_wr, dFz, e, dpsi, s, t] (paper eq. 1).

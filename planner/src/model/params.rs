@@ -71,6 +71,21 @@ pub struct ParamError {
     pub expected: String,
 }
 
+/// The limits of a vehicle a planner may change between solves without changing its
+/// problem's structure: the tire saturation bound (R5) and the grip (the tire-road friction
+/// and the brake torque limits [`VehicleParams::scale_grip`] scales).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// Tire saturation bound eps_sat (R5).
+    pub eps_sat: f64,
+    /// Tire-road friction coefficient mu [-].
+    pub mu: f64,
+    /// Lower bound of the front brake torque T_bf [N m].
+    pub t_bf_min: f64,
+    /// Lower bound of the combined rear torque T_comb [N m].
+    pub t_comb_min: f64,
+}
+
 /// The grip scales a planner may plan with ([`VehicleParams::scale_grip`]).
 pub const GRIP_SCALES: std::ops::RangeInclusive<f64> = 0.5..=1.0;
 
@@ -84,6 +99,27 @@ impl VehicleParams {
         self.mu *= f;
         self.t_bf_min *= f;
         self.t_comb_min *= f;
+    }
+
+    /// The limits a planner may change in place ([`Limits`]).
+    pub fn limits(&self) -> Limits {
+        Limits {
+            eps_sat: self.eps_sat,
+            mu: self.mu,
+            t_bf_min: self.t_bf_min,
+            t_comb_min: self.t_comb_min,
+        }
+    }
+
+    /// These parameters with `limits` in place of their own.
+    pub fn with_limits(self, limits: Limits) -> Self {
+        Self {
+            eps_sat: limits.eps_sat,
+            mu: limits.mu,
+            t_bf_min: limits.t_bf_min,
+            t_comb_min: limits.t_comb_min,
+            ..self
+        }
     }
 
     /// Checks the domain every model function relies on (finite values, positive sizes,

@@ -86,7 +86,8 @@ pub struct ClosedLoopArgs {
     warm_mu_factor: f64,
     /// Lane margin of a relaxed plan [m] (`planner_proc --relaxed-margin-m`): after a
     /// cycle without a plan of its own, the next cycles on a closed road plan with the tire
-    /// saturation bound `--relaxed-saturation` and this margin.
+    /// saturation bound `--relaxed-saturation`, the grip `--relaxed-friction-scale` and this
+    /// margin.
     #[arg(long, default_value_t = 0.6)]
     relaxed_margin_m: f64,
     /// Distance over which a plan's lane margin ramps in from the car's own distance inside
@@ -118,6 +119,10 @@ pub struct ClosedLoopArgs {
     /// Tire saturation bound of a relaxed plan (`planner_proc --relaxed-saturation`).
     #[arg(long, default_value_t = 0.05)]
     relaxed_saturation: f64,
+    /// Fraction of the vehicle file's friction and brake torques a relaxed plan uses
+    /// (`planner_proc --relaxed-friction-scale`; 0.5 to 1, at least `--friction-scale`).
+    #[arg(long, default_value_t = 1.0)]
+    relaxed_friction_scale: f64,
     /// Relaxed cycles in a row with their own plan before the nominal problem resumes
     /// (`planner_proc --relaxed-cycles`; 0: never relax).
     #[arg(long, default_value_t = 10)]
@@ -311,7 +316,9 @@ fn spawn_pair(
         .arg("--relaxed-cycles")
         .arg(args.relaxed_cycles.to_string())
         .arg("--relaxed-saturation")
-        .arg(args.relaxed_saturation.to_string());
+        .arg(args.relaxed_saturation.to_string())
+        .arg("--relaxed-friction-scale")
+        .arg(args.relaxed_friction_scale.to_string());
     let planner = ChildGuard(Some(
         pc.spawn()
             .map_err(|e| format!("{}: {e}", planner_exe.display()))?,

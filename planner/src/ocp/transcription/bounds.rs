@@ -133,8 +133,22 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
     /// row bounds in place (allocation-free; the constraint structure is unchanged). A
     /// value the vehicle check refuses changes nothing.
     pub fn set_saturation_bound(&mut self, eps_sat: f64) -> Result<(), crate::model::ParamError> {
-        let mut vehicle = self.spec.vehicle;
-        vehicle.eps_sat = eps_sat;
+        let limits = crate::model::Limits {
+            eps_sat,
+            ..self.spec.vehicle.limits()
+        };
+        self.set_limits(limits)
+    }
+
+    /// Sets the spec vehicle's [`crate::model::Limits`] (saturation bound and grip) and
+    /// updates the bounds in place (allocation-free; the constraint structure is unchanged,
+    /// and the model functions read the friction from the spec at every evaluation).
+    /// Limits the vehicle check refuses change nothing.
+    pub fn set_limits(
+        &mut self,
+        limits: crate::model::Limits,
+    ) -> Result<(), crate::model::ParamError> {
+        let vehicle = self.spec.vehicle.with_limits(limits);
         vehicle.check()?;
         self.spec.vehicle = vehicle;
         self.refresh_bounds();

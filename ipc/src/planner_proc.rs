@@ -254,6 +254,11 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
             "--lane-margin-m must be >= 0".into(),
         ));
     }
+    if let Some(k) = args.warm_max_iter.filter(|k| !(1..=100_000).contains(k)) {
+        return Err(PlannerProcError::Setup(format!(
+            "--warm-max-iter {k} must lie in 1..=100000"
+        )));
+    }
     if !(0.0..=0.9).contains(&args.min_path_scale) {
         return Err(PlannerProcError::Setup(format!(
             "--min-path-scale {} must lie in [0, 0.9]",
@@ -399,6 +404,7 @@ impl PlannerLoop {
                 // `check_args` has checked the rule.
                 mu_match: MuMatch::parse(&args.warm_mu, args.warm_mu_factor)
                     .unwrap_or(MuMatch::DEFAULT),
+                max_iter: args.warm_max_iter.unwrap_or(usize::MAX),
                 ..WarmOptions::default()
             },
             recorder,

@@ -41,6 +41,10 @@ pub struct RunOptions {
     /// [`shift_plan`]. A guess that comes out other than the recorded one is compared with
     /// nothing.
     pub reshift: bool,
+    /// Iterations each warm-started solve may take before it falls back to its cold start
+    /// (None: the recorded cap). A cap other than the recorded one is compared with
+    /// nothing.
+    pub warm_max_iter: Option<usize>,
 }
 
 impl Default for RunOptions {
@@ -52,6 +56,7 @@ impl Default for RunOptions {
             guess: None,
             log_plan: None,
             reshift: false,
+            warm_max_iter: None,
         }
     }
 }
@@ -116,6 +121,9 @@ pub enum ReplayError {
     /// The iteration budget is out of range.
     #[error("--max-iter must lie in 1..=100000, got {0}")]
     MaxIter(usize),
+    /// The warm iteration cap is out of range.
+    #[error("--warm-max-iter must lie in 1..=100000, got {0}")]
+    WarmMaxIter(usize),
     /// The solver thread failed.
     #[error("replay thread: {0}")]
     Thread(String),
@@ -244,6 +252,9 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
     if let Some(k) = opts.budgets.max_iter.filter(|k| !(1..=100_000).contains(k)) {
         return Err(ReplayError::MaxIter(k));
     }
+    if let Some(k) = opts.warm_max_iter.filter(|k| !(1..=100_000).contains(k)) {
+        return Err(ReplayError::WarmMaxIter(k));
+    }
     if rec.inputs.is_empty() {
         return Err(ReplayError::NoInputs);
     }
@@ -324,6 +335,10 @@ fn replay_all(
         // The recorded warm start is looked up (and re-shifted) before the timed solve.
         let mut prepared = prepare(rec, input.seq, start)?;
         let mut same_start = start == recorded_start;
+        if let (Some(k), Prepared::Warm(_, warm, _, _)) = (opts.warm_max_iter, &mut prepared) {
+            same_start &= warm.max_iter == k;
+            warm.max_iter = k;
+        }
         if opts.reshift {
             if let Prepared::Warm(w, _, _, guess) = &mut prepared {
                 *guess = reshifted(rec, input, w, ds);

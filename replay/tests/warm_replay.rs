@@ -138,6 +138,48 @@ fn a_reshifted_replay_rederives_each_warm_guess_from_the_plan_it_shifts() {
     assert_eq!((again.identical, again.unverified), (1, 5), "{again}");
 }
 
+/// `--warm-max-iter K` re-solves each warm plan with its warm cap set to K: a cap equal to
+/// the recorded one (the last plan's one iteration) keeps that plan compared and
+/// bit-identical, while the plans recorded without a cap now fall back to their cold start
+/// after one iteration, so they take more iterations than before and are compared with
+/// nothing. A cap out of range is refused before anything is solved.
+#[test]
+fn a_warm_cap_replay_falls_back_where_the_cap_bites_and_keeps_the_recorded_cap_identical() {
+    let d = common::temp_dir("warm_cap");
+    let rec = drive(&d.join("warm.mcap"));
+    let plain = run(&rec, RunOptions::default()).unwrap();
+    let capped = run(
+        &rec,
+        RunOptions {
+            warm_max_iter: Some(1),
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let same: Vec<Option<bool>> = capped.per_plan.iter().map(|p| p.identical).collect();
+    assert_eq!(
+        same,
+        [Some(true), None, None, None, None, Some(true)],
+        "{capped}"
+    );
+    for (a, b) in plain.per_plan[1..5].iter().zip(&capped.per_plan[1..5]) {
+        assert!(b.iterations > a.iterations, "seq {}: {a:?} {b:?}", a.seq);
+        assert_eq!(b.status, "optimal", "{b:?}");
+    }
+    for k in [0, 100_001] {
+        match run(
+            &rec,
+            RunOptions {
+                warm_max_iter: Some(k),
+                ..RunOptions::default()
+            },
+        ) {
+            Err(ReplayError::WarmMaxIter(got)) => assert_eq!(got, k),
+            other => panic!("expected --warm-max-iter {k} to be refused, got {other:?}"),
+        }
+    }
+}
+
 #[test]
 fn a_warm_input_without_its_warm_start_is_refused_by_seq() {
     let d = common::temp_dir("warm_missing");

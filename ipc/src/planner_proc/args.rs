@@ -133,6 +133,12 @@ pub struct PlannerArgs {
     /// Multiple of the geometric mean for `--warm-mu geometric` (finite, > 0).
     #[arg(long, default_value_t = 30.0)]
     pub warm_mu_factor: f64,
+    /// Iterations a warm-started solve may take before it falls back to the cold guess
+    /// with what is left of the cycle's caps, in 1..=100000 (default: none, the solver's
+    /// cap; `WarmOptions::max_iter`). A warm start from a plan the car has left behind can
+    /// stall for the whole budget; a cap leaves the fall-back time to converge.
+    #[arg(long, value_name = "K")]
+    pub warm_max_iter: Option<usize>,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
     #[arg(long)]
     pub exit_on_stdin_eof: bool,

@@ -65,6 +65,12 @@ enum Command {
         /// other than the recorded one is compared with no recorded output).
         #[arg(long)]
         reshift: bool,
+        /// Iterations each warm-started solve may take before it falls back to its cold
+        /// start, within the solve's caps (default: the recorded one; to measure a warm
+        /// cap on a recording; a cap other than the recorded one is compared with no
+        /// recorded output).
+        #[arg(long, value_name = "K")]
+        warm_max_iter: Option<usize>,
     },
     /// Summarise a recording: channels, counts, duration, drops.
     Info {
@@ -181,6 +187,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             plot,
             log_plan,
             reshift,
+            warm_max_iter,
         } => {
             let rec = read(&file)?;
             let opts = RunOptions {
@@ -193,6 +200,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 guess: guess.as_deref().and_then(GuessKind::parse),
                 log_plan,
                 reshift,
+                warm_max_iter,
             };
             let report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
             if let Some(png) = &plot {

@@ -84,6 +84,10 @@ pub struct ClosedLoopArgs {
     /// --warm-mu-factor`).
     #[arg(long, default_value_t = 30.0)]
     warm_mu_factor: f64,
+    /// Iterations a warm-started solve may take before it falls back to the cold guess
+    /// (`planner_proc --warm-max-iter`; default: the solver's cap).
+    #[arg(long, value_name = "K")]
+    warm_max_iter: Option<usize>,
     /// Lane margin of a relaxed plan [m] (`planner_proc --relaxed-margin-m`): after a
     /// cycle without a plan of its own, the next cycles on a closed road plan with the tire
     /// saturation bound `--relaxed-saturation`, the grip `--relaxed-friction-scale` and this
@@ -296,6 +300,9 @@ fn spawn_pair(
     }
     if let Some(w) = args.soft_lane_weight {
         pc.arg("--soft-lane-weight").arg(w.to_string());
+    }
+    if let Some(k) = args.warm_max_iter {
+        pc.arg("--warm-max-iter").arg(k.to_string());
     }
     pc.arg("--end-speed-envelope")
         .arg(args.end_speed_envelope())

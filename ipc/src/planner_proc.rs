@@ -208,6 +208,15 @@ struct PlannerLoop {
     warm_start: bool,
     /// How a warm-started replan runs (its cold fall-back is the guess of every cold solve).
     warm_opts: WarmOptions,
+    /// Warm iteration cap of a cycle after one whose solve did not succeed
+    /// (`--warm-max-iter-after-failure`, at most `warm_opts.max_iter`).
+    warm_cap_after_failure: usize,
+    /// The last cycle's solve did not succeed: its warm source is a cycle older.
+    last_failed: bool,
+    /// The warm options of the latest warm-started solve (recorded with it).
+    warm_used: WarmOptions,
+    /// Warm-started solves that ran under `warm_cap_after_failure`.
+    capped_after_failure: u64,
     recorder: Option<CycleRecorder>,
     cy: Cycle,
     policy: publish_policy::Policy,
@@ -257,6 +266,12 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
     if let Some(k) = args.warm_max_iter.filter(|k| !(1..=100_000).contains(k)) {
         return Err(PlannerProcError::Setup(format!(
             "--warm-max-iter {k} must lie in 1..=100000"
+        )));
+    }
+    if !(1..=100_000).contains(&args.warm_max_iter_after_failure) {
+        return Err(PlannerProcError::Setup(format!(
+            "--warm-max-iter-after-failure {} must lie in 1..=100000",
+            args.warm_max_iter_after_failure
         )));
     }
     if !(0.0..=0.9).contains(&args.min_path_scale) {
@@ -407,6 +422,10 @@ impl PlannerLoop {
                 max_iter: args.warm_max_iter.unwrap_or(usize::MAX),
                 ..WarmOptions::default()
             },
+            warm_cap_after_failure: args.warm_max_iter_after_failure,
+            last_failed: false,
+            warm_used: WarmOptions::default(),
+            capped_after_failure: 0,
             recorder,
             cy,
             policy: publish_policy::Policy::default(),
@@ -597,7 +616,15 @@ impl PlannerLoop {
             && shift >= 0.0
             && shift < 0.5 * HORIZON_N as f64 * ds;
         if sound && cy.shifted_guess(shift, &x0, ds) {
-            // Primal and dual, falling back to the equilibrium inside the same caps.
+            // Primal and dual, falling back to the equilibrium inside the same caps. After a
+            // failed cycle the warm source is older and the warm solve more likely to stall
+            // for the whole budget, so its cap may be tighter.
+            let mut opts = self.warm_opts;
+            if self.last_failed && self.warm_cap_after_failure < opts.max_iter {
+                opts.max_iter = self.warm_cap_after_failure;
+                self.capped_after_failure += 1;
+            }
+            self.warm_used = opts;
             let r = cy.planner.replan_warm(
                 &cy.road.kappa,
                 &cy.road.e_min,
@@ -605,10 +632,11 @@ impl PlannerLoop {
                 x0,
                 (&cy.guess_x, &cy.guess_u),
                 shift,
-                self.warm_opts,
+                opts,
             );
             match r {
                 Ok(r) => {
+                    self.last_failed = !r.info.status.is_success();
                     let fell_back = r.fell_back;
                     if fell_back {
                         self.cold += 1;
@@ -628,8 +656,12 @@ impl PlannerLoop {
             x0,
             ReplanGuess::cold(self.warm_opts.cold),
         ) {
-            Ok(i) => Some((i, Start::Cold)),
+            Ok(i) => {
+                self.last_failed = !i.status.is_success();
+                Some((i, Start::Cold))
+            }
             Err(e) => {
+                self.last_failed = true;
                 elog!("planner: replan failed: {e}");
                 self.failed += 1;
                 self.planned.mark(state);
@@ -649,7 +681,7 @@ impl PlannerLoop {
         let warm = match solved.start {
             Start::Warm { shift, .. } => Some(WarmRecord {
                 shift,
-                opts: self.warm_opts,
+                opts: self.warm_used,
                 guess: (&cy.guess_x, &cy.guess_u),
                 duals: cy.planner.warm_duals(),
             }),

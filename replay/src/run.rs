@@ -45,6 +45,10 @@ pub struct RunOptions {
     /// (None: the recorded cap). A cap other than the recorded one is compared with
     /// nothing.
     pub warm_max_iter: Option<usize>,
+    /// Iterations a warm-started solve may take after a replayed solve that did not
+    /// succeed (None: no such cap), as the planner's `--warm-max-iter-after-failure`. A
+    /// plan it changes the cap of is compared with nothing.
+    pub warm_max_iter_after_failure: Option<usize>,
 }
 
 impl Default for RunOptions {
@@ -57,6 +61,7 @@ impl Default for RunOptions {
             log_plan: None,
             reshift: false,
             warm_max_iter: None,
+            warm_max_iter_after_failure: None,
         }
     }
 }
@@ -121,8 +126,8 @@ pub enum ReplayError {
     /// The iteration budget is out of range.
     #[error("--max-iter must lie in 1..=100000, got {0}")]
     MaxIter(usize),
-    /// The warm iteration cap is out of range.
-    #[error("--warm-max-iter must lie in 1..=100000, got {0}")]
+    /// A warm iteration cap is out of range.
+    #[error("--warm-max-iter and --warm-max-iter-after-failure must lie in 1..=100000, got {0}")]
     WarmMaxIter(usize),
     /// The solver thread failed.
     #[error("replay thread: {0}")]
@@ -252,8 +257,10 @@ pub fn run(rec: &Recording, opts: RunOptions) -> Result<RunReport, ReplayError> 
     if let Some(k) = opts.budgets.max_iter.filter(|k| !(1..=100_000).contains(k)) {
         return Err(ReplayError::MaxIter(k));
     }
-    if let Some(k) = opts.warm_max_iter.filter(|k| !(1..=100_000).contains(k)) {
-        return Err(ReplayError::WarmMaxIter(k));
+    for k in [opts.warm_max_iter, opts.warm_max_iter_after_failure] {
+        if let Some(k) = k.filter(|k| !(1..=100_000).contains(k)) {
+            return Err(ReplayError::WarmMaxIter(k));
+        }
     }
     if rec.inputs.is_empty() {
         return Err(ReplayError::NoInputs);
@@ -316,6 +323,7 @@ fn replay_all(
     // Progress is reported between solves, outside the timed section.
     planner::progress::begin(rec.inputs.len() as u64, "replay");
     let mut sent = SentPlans::default();
+    let mut last_failed = false;
     for input in &rec.inputs {
         let (spec, recorded_settings, recorded_start) = problem_from(input)?;
         let ds = spec.ds();
@@ -339,6 +347,14 @@ fn replay_all(
             same_start &= warm.max_iter == k;
             warm.max_iter = k;
         }
+        if let (Some(k), Prepared::Warm(_, warm, _, _)) =
+            (opts.warm_max_iter_after_failure, &mut prepared)
+        {
+            if last_failed && k < warm.max_iter {
+                same_start = false;
+                warm.max_iter = k;
+            }
+        }
         if opts.reshift {
             if let Prepared::Warm(w, _, _, guess) = &mut prepared {
                 *guess = reshifted(rec, input, w, ds);
@@ -350,6 +366,7 @@ fn replay_all(
         let t0 = Instant::now();
         let info = solve(&mut planner, input.seq, &prepared)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
+        last_failed = !info.status.is_success();
         let replayed = plan_output(input.seq, 0, &info, planner.states(), planner.controls());
         // A solve stopped by other caps than the recorded ones, or by a clock, is compared
         // with nothing.

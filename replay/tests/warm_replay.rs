@@ -180,6 +180,42 @@ fn a_warm_cap_replay_falls_back_where_the_cap_bites_and_keeps_the_recorded_cap_i
     }
 }
 
+/// `--warm-max-iter-after-failure K` caps a warm solve only after a replayed solve that
+/// did not succeed. Under a 3-iteration budget every plan fails: each warm solve takes
+/// its 3 (the last one its recorded 1) and leaves its fall-back 1 (2), while under the
+/// cap of 1 the warm plans after the first failure leave their fall-back 2. The cold
+/// first plan and the plans whose cap it does not lower are unchanged.
+#[test]
+fn a_warm_cap_after_failure_applies_only_after_a_failed_solve() {
+    let d = common::temp_dir("warm_cap_after_failure");
+    let rec = drive(&d.join("warm.mcap"));
+    let budget = RunOptions {
+        budgets: replay::budget::Budgets {
+            budget_ms: None,
+            max_iter: Some(3),
+        },
+        ..RunOptions::default()
+    };
+    let its = |r: &replay::run::RunReport| -> Vec<u32> {
+        r.per_plan.iter().map(|p| p.iterations).collect()
+    };
+    let plain = run(&rec, budget).unwrap();
+    assert!(
+        plain.per_plan.iter().all(|p| p.status != "optimal"),
+        "{plain}"
+    );
+    assert_eq!(its(&plain), [3, 1, 1, 1, 1, 2]);
+    let capped = run(
+        &rec,
+        RunOptions {
+            warm_max_iter_after_failure: Some(1),
+            ..budget
+        },
+    )
+    .unwrap();
+    assert_eq!(its(&capped), [3, 2, 2, 2, 2, 2]);
+}
+
 #[test]
 fn a_warm_input_without_its_warm_start_is_refused_by_seq() {
     let d = common::temp_dir("warm_missing");

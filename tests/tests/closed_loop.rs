@@ -22,6 +22,11 @@ fn serial() -> MutexGuard<'static, ()> {
 /// (a time budget that stops a solve is not deterministic); the budget has its own test.
 const ROOMY_BUDGET: [&str; 2] = ["--budget-ms", "1000"];
 
+/// A solver iteration cap just above the first (cold) plan's 25 iterations at 15 m/s on the
+/// oval: that plan converges, and a cold fall-back that starts a few iterations late
+/// does not.
+const CAPPED_MAX_ITER: usize = 26;
+
 fn bin_dir() -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
     // target/<profile>/deps/closed_loop-<hash> -> target/<profile>
@@ -169,6 +174,59 @@ fn closed_loop_recording_replays_bit_identically() {
     let r: serde_json::Value = serde_json::from_slice(&out.stdout)
         .unwrap_or_else(|e| panic!("bad replay JSON ({e}):\n{stderr}"));
     assert!(out.status.success(), "replay run failed:\n{stderr}");
+    assert_eq!(r["deterministic"], true, "{stderr}");
+    assert_eq!(r["identical"].as_u64(), Some(inputs), "{stderr}");
+    assert_eq!(r["different"], 0, "{stderr}");
+}
+
+/// Warm solves capped at 4 iterations fall back to a cold solve left 22 of the solver's
+/// 26, which ends at the cap: the cycle fails. The cycle after each failure runs its warm
+/// solve under `--warm-max-iter-after-failure 2` instead, so its fall-back gets 24; each
+/// warm start is recorded with the cap it ran under, so every plan replays bit-identically
+/// (a recording of the other cap would leave the replayed fall-back 2 iterations short).
+#[test]
+fn warm_solves_after_a_failed_cycle_run_under_their_cap_and_replay_bit_identically() {
+    let _serial = serial();
+    let replay = bin_dir().join("replay");
+    assert!(replay.is_file(), "{} missing", replay.display());
+    let dir = std::env::temp_dir().join(format!("e2e-warm-cap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let solver = dir.join("solver.toml");
+    std::fs::write(&solver, format!("max_iter = {CAPPED_MAX_ITER}\n")).expect("solver file");
+    let file = dir.join("capped.mcap");
+    let path = file.to_string_lossy().into_owned();
+    let solver = solver.to_string_lossy().into_owned();
+    let v = run_closed_loop(
+        40.0,
+        &[
+            "--record",
+            &path,
+            "--solver",
+            &solver,
+            "--warm-max-iter",
+            "4",
+            "--warm-max-iter-after-failure",
+            "2",
+            ROOMY_BUDGET[0],
+            ROOMY_BUDGET[1],
+            "--initial-speed-mps",
+            "15",
+        ],
+    );
+    let capped = v["planner"]["warm_capped_after_failure"]
+        .as_u64()
+        .unwrap_or(0);
+    assert!(capped >= 1, "no warm solve ran under the cap: {v}");
+    let inputs = v["planner"]["recording"]["inputs"].as_u64().unwrap_or(0);
+    assert!(inputs > capped, "{v}");
+    let out = Command::new(&replay)
+        .args(["run", &path, "--json"])
+        .output()
+        .expect("run replay");
+    let _ = std::fs::remove_dir_all(&dir);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("bad replay JSON ({e}):\n{stderr}"));
     assert_eq!(r["deterministic"], true, "{stderr}");
     assert_eq!(r["identical"].as_u64(), Some(inputs), "{stderr}");
     assert_eq!(r["different"], 0, "{stderr}");

@@ -353,11 +353,11 @@ fn bad_states_are_counted_and_never_planned_from() {
 }
 
 /// (d) Options that would hang a process or panic it (an endless wait, a plant step so
-/// small the substep count overflows, an infinite sleep), or that name a soft lane the
-/// road cannot have, are refused before any IPC, with exit code 2 and the option named.
+/// small the substep count overflows, an infinite sleep), that name a soft lane the road
+/// cannot have, or that set a cap or scale out of its range, are refused before any IPC, with exit code 2 and the option named.
 #[test]
 fn options_that_would_hang_or_panic_are_refused_by_name() {
-    let cases: [(&str, &[&str], &str); 17] = [
+    let cases: [(&str, &[&str], &str); 18] = [
         ("tracker_proc", &["--plant-dt-s", "1e-9"], "--plant-dt-s"),
         (
             "tracker_proc",
@@ -376,6 +376,7 @@ fn options_that_would_hang_or_panic_are_refused_by_name() {
             "--gap-s",
         ),
         ("planner_proc", &["--rate-hz", "0"], "--rate-hz"),
+        ("planner_proc", &["--warm-max-iter", "0"], "--warm-max-iter"),
         (
             "planner_proc",
             &["--min-path-scale", "0.95"],

@@ -139,6 +139,13 @@ pub struct PlannerArgs {
     /// stall for the whole budget; a cap leaves the fall-back time to converge.
     #[arg(long, value_name = "K")]
     pub warm_max_iter: Option<usize>,
+    /// Iterations a warm-started solve may take in a cycle after one whose solve did not
+    /// succeed, in 1..=100000 (at most `--warm-max-iter`). Such a warm start shifts a plan
+    /// a cycle older; where the car has left it, the warm solve stalls cycle after cycle
+    /// while the cold guess converges in 30-50 iterations, so 40 leaves the fall-back
+    /// about half of an 80 ms budget on a 2-core machine.
+    #[arg(long, value_name = "K", default_value_t = 40)]
+    pub warm_max_iter_after_failure: usize,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
     #[arg(long)]
     pub exit_on_stdin_eof: bool,

@@ -47,6 +47,7 @@ impl PlannerLoop {
             "first_cycle_ms": self.first_cycle_ms,
             "plans_published": published,
             "warm_starts": warm,
+            "warm_capped_after_failure": self.capped_after_failure,
             "equilibrium_starts": cold,
             "not_converged": failed,
             "relaxed_plans": self.cy.relaxed.as_ref().map_or(0, |r| r.sent),

@@ -71,6 +71,11 @@ enum Command {
         /// recorded output).
         #[arg(long, value_name = "K")]
         warm_max_iter: Option<usize>,
+        /// Iterations a warm-started solve may take after a replayed solve that did not
+        /// succeed, as `planner_proc --warm-max-iter-after-failure` (plans it changes are
+        /// compared with no recorded output).
+        #[arg(long, value_name = "K")]
+        warm_max_iter_after_failure: Option<usize>,
     },
     /// Summarise a recording: channels, counts, duration, drops.
     Info {
@@ -188,6 +193,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             log_plan,
             reshift,
             warm_max_iter,
+            warm_max_iter_after_failure,
         } => {
             let rec = read(&file)?;
             let opts = RunOptions {
@@ -201,6 +207,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 log_plan,
                 reshift,
                 warm_max_iter,
+                warm_max_iter_after_failure,
             };
             let report = run(&rec, opts).map_err(|e| format!("{}: {e}", file.display()))?;
             if let Some(png) = &plot {

@@ -88,6 +88,10 @@ pub struct ClosedLoopArgs {
     /// (`planner_proc --warm-max-iter`; default: the solver's cap).
     #[arg(long, value_name = "K")]
     warm_max_iter: Option<usize>,
+    /// Iterations a warm-started solve may take after a cycle whose solve did not succeed
+    /// (`planner_proc --warm-max-iter-after-failure`).
+    #[arg(long, value_name = "K", default_value_t = 40)]
+    warm_max_iter_after_failure: usize,
     /// Lane margin of a relaxed plan [m] (`planner_proc --relaxed-margin-m`): after a
     /// cycle without a plan of its own, the next cycles on a closed road plan with the tire
     /// saturation bound `--relaxed-saturation`, the grip `--relaxed-friction-scale` and this
@@ -304,6 +308,8 @@ fn spawn_pair(
     if let Some(k) = args.warm_max_iter {
         pc.arg("--warm-max-iter").arg(k.to_string());
     }
+    pc.arg("--warm-max-iter-after-failure")
+        .arg(args.warm_max_iter_after_failure.to_string());
     pc.arg("--end-speed-envelope")
         .arg(args.end_speed_envelope())
         .arg("--warm-start")

@@ -155,8 +155,13 @@ enum Start {
     Cold,
     /// Warm, from the previous plan moved `shift` metres (the planner's warm buffers and
     /// `Cycle::guess_x` hold where it started); `fell_back` when the warm solve stalled and
-    /// the plan comes from the cold guess inside the same caps.
-    Warm { shift: f64, fell_back: bool },
+    /// the plan comes from the cold guess inside the same caps; `opts` as it ran (recorded
+    /// with it).
+    Warm {
+        shift: f64,
+        fell_back: bool,
+        opts: WarmOptions,
+    },
 }
 
 impl Start {
@@ -213,8 +218,6 @@ struct PlannerLoop {
     warm_cap_after_failure: usize,
     /// The last cycle's solve did not succeed: its warm source is a cycle older.
     last_failed: bool,
-    /// The warm options of the latest warm-started solve (recorded with it).
-    warm_used: WarmOptions,
     /// Warm-started solves that ran under `warm_cap_after_failure`.
     capped_after_failure: u64,
     recorder: Option<CycleRecorder>,
@@ -424,7 +427,6 @@ impl PlannerLoop {
             },
             warm_cap_after_failure: args.warm_max_iter_after_failure,
             last_failed: false,
-            warm_used: WarmOptions::default(),
             capped_after_failure: 0,
             recorder,
             cy,
@@ -619,12 +621,12 @@ impl PlannerLoop {
             // Primal and dual, falling back to the equilibrium inside the same caps. After a
             // failed cycle the warm source is older and the warm solve more likely to stall
             // for the whole budget, so its cap may be tighter.
-            let mut opts = self.warm_opts;
-            if self.last_failed && self.warm_cap_after_failure < opts.max_iter {
-                opts.max_iter = self.warm_cap_after_failure;
-                self.capped_after_failure += 1;
-            }
-            self.warm_used = opts;
+            let tightened = self
+                .warm_opts
+                .capped_after_failure(self.warm_cap_after_failure)
+                .filter(|_| self.last_failed);
+            self.capped_after_failure += u64::from(tightened.is_some());
+            let opts = tightened.unwrap_or(self.warm_opts);
             let r = cy.planner.replan_warm(
                 &cy.road.kappa,
                 &cy.road.e_min,
@@ -643,7 +645,12 @@ impl PlannerLoop {
                     } else {
                         self.warm += 1;
                     }
-                    return Some((r.info, Start::Warm { shift, fell_back }));
+                    let start = Start::Warm {
+                        shift,
+                        fell_back,
+                        opts,
+                    };
+                    return Some((r.info, start));
                 }
                 Err(e) => elog!("planner: warm replan failed: {e}"),
             }
@@ -679,9 +686,9 @@ impl PlannerLoop {
         };
         let cy = &self.cy;
         let warm = match solved.start {
-            Start::Warm { shift, .. } => Some(WarmRecord {
+            Start::Warm { shift, opts, .. } => Some(WarmRecord {
                 shift,
-                opts: self.warm_used,
+                opts,
                 guess: (&cy.guess_x, &cy.guess_u),
                 duals: cy.planner.warm_duals(),
             }),

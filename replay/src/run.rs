@@ -350,9 +350,9 @@ fn replay_all(
         if let (Some(k), Prepared::Warm(_, warm, _, _)) =
             (opts.warm_max_iter_after_failure, &mut prepared)
         {
-            if last_failed && k < warm.max_iter {
+            if let Some(capped) = warm.capped_after_failure(k).filter(|_| last_failed) {
                 same_start = false;
-                warm.max_iter = k;
+                *warm = capped;
             }
         }
         if opts.reshift {

@@ -64,6 +64,18 @@ fn run_closed_loop(distance_m: f64, extra: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("bad JSON ({e}):\n{stderr}"))
 }
 
+/// `replay run FILE --json`: its report, whether it exited 0, and its stderr.
+fn replay_run_json(replay: &std::path::Path, file: &str) -> (serde_json::Value, bool, String) {
+    let out = Command::new(replay)
+        .args(["run", file, "--json"])
+        .output()
+        .expect("run replay");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let r = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("bad replay JSON ({e}):\n{stderr}"));
+    (r, out.status.success(), stderr)
+}
+
 /// The closed loop's acceptance criterion: one lap of the oval over iceoryx2, the car stays in the
 /// lane and within 0.5 m of the plan, and both processes shut down (the command returns
 /// only after both exited).
@@ -165,15 +177,9 @@ fn closed_loop_recording_replays_bit_identically() {
         "every (equilibrium-started) plan recorded: {v}"
     );
 
-    let out = Command::new(&replay)
-        .args(["run", &path, "--json"])
-        .output()
-        .expect("run replay");
+    let (r, succeeded, stderr) = replay_run_json(&replay, &path);
     let _ = std::fs::remove_file(&file);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let r: serde_json::Value = serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|e| panic!("bad replay JSON ({e}):\n{stderr}"));
-    assert!(out.status.success(), "replay run failed:\n{stderr}");
+    assert!(succeeded, "replay run failed:\n{stderr}");
     assert_eq!(r["deterministic"], true, "{stderr}");
     assert_eq!(r["identical"].as_u64(), Some(inputs), "{stderr}");
     assert_eq!(r["different"], 0, "{stderr}");
@@ -219,14 +225,8 @@ fn warm_solves_after_a_failed_cycle_run_under_their_cap_and_replay_bit_identical
     assert!(capped >= 1, "no warm solve ran under the cap: {v}");
     let inputs = v["planner"]["recording"]["inputs"].as_u64().unwrap_or(0);
     assert!(inputs > capped, "{v}");
-    let out = Command::new(&replay)
-        .args(["run", &path, "--json"])
-        .output()
-        .expect("run replay");
+    let (r, _, stderr) = replay_run_json(&replay, &path);
     let _ = std::fs::remove_dir_all(&dir);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let r: serde_json::Value = serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|e| panic!("bad replay JSON ({e}):\n{stderr}"));
     assert_eq!(r["deterministic"], true, "{stderr}");
     assert_eq!(r["identical"].as_u64(), Some(inputs), "{stderr}");
     assert_eq!(r["different"], 0, "{stderr}");

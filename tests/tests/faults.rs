@@ -354,7 +354,8 @@ fn bad_states_are_counted_and_never_planned_from() {
 
 /// (d) Options that would hang a process or panic it (an endless wait, a plant step so
 /// small the substep count overflows, an infinite sleep), that name a soft lane the road
-/// cannot have, or that set a cap or scale out of its range, are refused before any IPC, with exit code 2 and the option named.
+/// cannot have, or that set a cap or scale out of its range, are refused before any IPC,
+/// with exit code 2 and the option named.
 #[test]
 fn options_that_would_hang_or_panic_are_refused_by_name() {
     let cases: [(&str, &[&str], &str); 18] = [

@@ -53,6 +53,18 @@ impl Default for WarmOptions {
     }
 }
 
+impl WarmOptions {
+    /// These options with the warm cap lowered to `cap`, for a cycle after one whose solve
+    /// did not succeed (its warm start shifts a plan a cycle older); `None` when `cap`
+    /// lowers nothing.
+    pub fn capped_after_failure(self, cap: usize) -> Option<Self> {
+        (cap < self.max_iter).then_some(Self {
+            max_iter: cap,
+            ..self
+        })
+    }
+}
+
 /// What a warm-started replan did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WarmReplan {

@@ -24,7 +24,7 @@ use planner::ip::{MuMatch, SolveInfo};
 use planner::model::{ix, NU, NX};
 use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 
-use crate::clock::monotonic_ns;
+use crate::clock::{monotonic_ns, thread_cpu_ns};
 use crate::elog;
 use crate::msg::{RunId, Trajectory, VehicleState, HORIZON_N};
 use crate::road::{RoadWindow, Scenario, StartRamp};
@@ -192,6 +192,8 @@ struct Solved {
     stamp_in: u64,
     /// When the cycle started (the cycle latency runs to the send).
     t0: Instant,
+    /// The planner thread's CPU time when the cycle started \[ns\] ([`thread_cpu_ns`]).
+    cpu_t0_ns: u64,
     /// Seconds from the cycle's start to the end of the solve.
     solve_time_s: f64,
 }
@@ -245,6 +247,9 @@ struct PlannerLoop {
     cycle_lat: Latency,
     /// Steady cycles that ended past the budget plus [`send::OVERRUN_ALLOWANCE_MS`].
     past_budget: u64,
+    /// Those of them whose own CPU time stayed within it: the planner thread waited for a
+    /// CPU (the machine's stall, not the cycle's work).
+    past_budget_off_cpu: u64,
     state_ipc_lat: Latency,
 }
 
@@ -447,6 +452,7 @@ impl PlannerLoop {
             failed: 0,
             cycle_lat: Latency::new(),
             past_budget: 0,
+            past_budget_off_cpu: 0,
             state_ipc_lat: Latency::new(),
         })
     }
@@ -490,6 +496,7 @@ impl PlannerLoop {
     fn plan_cycle(&mut self, state: &VehicleState) -> Option<Solved> {
         let stamp_in = now_ns();
         let t0 = Instant::now();
+        let cpu_t0_ns = thread_cpu_ns();
         let s_track = state.x[ix::S];
         let relaxed = self.cy.relaxed.as_ref().is_some_and(|r| r.active());
         self.cy.set_relaxed(relaxed);
@@ -516,6 +523,7 @@ impl PlannerLoop {
             s_track,
             stamp_in,
             t0,
+            cpu_t0_ns,
             solve_time_s,
         })
     }

@@ -66,6 +66,7 @@ impl PlannerLoop {
             "cycle_ms_p99": ms(&self.cycle_lat, 0.99),
             "cycle_ms_max": self.cycle_lat.max_ns() as f64 * 1e-6,
             "cycles_past_budget": self.past_budget,
+            "cycles_past_budget_off_cpu": self.past_budget_off_cpu,
             "state_age_at_receive_us": self.state_ipc_lat.json_us(),
             "rate_hz": args.rate_hz,
             "recording": recording,

@@ -5,7 +5,7 @@
 use planner::model::{ix, NU, NX};
 
 use super::{publish_policy, PlannerLoop, Ports, Solved};
-use crate::clock::monotonic_ns;
+use crate::clock::{monotonic_ns, thread_cpu_ns};
 use crate::elog;
 use crate::msg::{status_code, PlanKind, VehicleState, HORIZON_N, KIND_NO_PLAN, MSG_VERSION};
 use crate::services::{ipc_err, IpcError};
@@ -108,12 +108,17 @@ impl PlannerLoop {
 
     /// Counts a steady cycle of `cycle_ms` that ended past the budget plus
     /// [`OVERRUN_ALLOWANCE_MS`] and logs it (the first ten, then every hundredth) with where
-    /// its time went: the solve (how it started, its status and iterations) or the send.
+    /// its time went: the solve (how it started, its status and iterations) or the send,
+    /// and the planner thread's CPU time in the cycle. A cycle whose CPU time stayed within
+    /// the allowance is also counted as off the CPU: the thread waited, it did not compute.
     fn note_overrun(&mut self, solved: &Solved, cycle_ms: f64) {
-        if cycle_ms <= self.budget_ms + OVERRUN_ALLOWANCE_MS {
+        let limit_ms = self.budget_ms + OVERRUN_ALLOWANCE_MS;
+        if cycle_ms <= limit_ms {
             return;
         }
+        let cpu_ms = thread_cpu_ns().saturating_sub(solved.cpu_t0_ns) as f64 * 1e-6;
         self.past_budget += 1;
+        self.past_budget_off_cpu += u64::from(cpu_ms <= limit_ms);
         let n = self.past_budget;
         if n > 10 && !n.is_multiple_of(100) {
             return;
@@ -133,7 +138,7 @@ impl PlannerLoop {
                 (i.status.name(), i.iterations, i.times)
             });
         elog!(
-            "planner: cycle at s = {:.1} m took {cycle_ms:.1} ms, past the budget {:.1} ms + {OVERRUN_ALLOWANCE_MS} ms ({n} so far): solve {solve_ms:.1} ms ({start}, {status} after {iterations} iterations; in the solver {:.1} ms: evaluations {:.1}, factorizations {:.1}), send {:.1} ms",
+            "planner: cycle at s = {:.1} m took {cycle_ms:.1} ms, past the budget {:.1} ms + {OVERRUN_ALLOWANCE_MS} ms ({n} so far): solve {solve_ms:.1} ms ({start}, {status} after {iterations} iterations; in the solver {:.1} ms: evaluations {:.1}, factorizations {:.1}), send {:.1} ms; on the CPU {cpu_ms:.1} ms",
             solved.s_track,
             self.budget_ms,
             t.total * 1e3,

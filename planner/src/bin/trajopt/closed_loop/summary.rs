@@ -92,6 +92,7 @@ pub fn extend(args: &ClosedLoopArgs, map: &RoadMap, trace_dir: &Path, obj: &mut 
         "cycle_ms_p99",
         "cycle_ms_max",
         "cycles_past_budget",
+        "cycles_past_budget_off_cpu",
     ] {
         o.insert(k.into(), pf(k));
     }

@@ -99,8 +99,6 @@ struct LoopState {
     resto_steps: usize,
     /// Progress watch of the regular iterations.
     stall: StallWatch,
-    /// Re-centring watch of a warm start ([`warm::Recentre`]).
-    recentre: warm::Recentre,
 }
 
 impl Solver<KktBackend> {
@@ -235,7 +233,6 @@ impl<K: KktSolver> Solver<K> {
         let mut st = self.loop_state();
         if let (true, Some(w)) = (warmed, warm) {
             st.mu = self.matched_mu(w.mu_floor, w.mu_match);
-            st.recentre = warm::Recentre::new(true);
         }
 
         let status = loop {
@@ -308,7 +305,6 @@ impl<K: KktSolver> Solver<K> {
                 backtracks,
                 step_kind,
             );
-            self.watch_recentre(&mut st, alpha);
             st.iter += 1;
         };
         self.finish(nlp, status, &st, info, clock)
@@ -372,7 +368,6 @@ impl<K: KktSolver> Solver<K> {
             resto: None,
             resto_steps: 0,
             stall: StallWatch::new(),
-            recentre: warm::Recentre::new(false),
         }
     }
 

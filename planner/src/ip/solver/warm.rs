@@ -19,63 +19,12 @@
 //! [`MuMatch::Geometric`] starts a factor above it, so that the first steps also pull the
 //! pairs below it back toward the central path (docs/performance.md, "The warm start's
 //! barrier parameter").
-//!
-//! The typical pair is not always the right one: a start whose pairs far from the central
-//! path govern the step (some s_i z_i a million times mu) takes fraction-to-boundary steps
-//! of 0.3 % to 10 % for dozens of iterations at that mu. After [`SHORT_STEPS`] consecutive
-//! steps shorter than [`SHORT_STEP`] (a rejected step counts as one) a warm-started solve
-//! re-centres once: mu becomes [`RECENTRE_SHARE`] times the average complementarity of the
-//! current point, within the same clip, when that lies above it ([`Recentre`]). The
-//! constants are measured in docs/performance.md ("Re-centring a stalled warm start").
 
-use super::{LoopState, Solver};
+use super::Solver;
 use crate::ip::kkt::KktSolver;
 
 /// Smallest bound multiplier a warm start keeps.
 const Z_FLOOR: f64 = 1e-10;
-
-/// A step shorter than this is short for [`Recentre`].
-pub(super) const SHORT_STEP: f64 = 0.1;
-/// Consecutive short steps after which a warm start re-centres.
-pub(super) const SHORT_STEPS: usize = 4;
-/// The re-centred mu as a share of the average complementarity.
-pub(super) const RECENTRE_SHARE: f64 = 0.1;
-
-/// The watch that re-centres a warm start's barrier parameter once when its steps stay
-/// short (see the module documentation). Disarmed in a cold solve and after it fired.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Recentre {
-    armed: bool,
-    short: usize,
-}
-
-impl Recentre {
-    /// A watch armed (`warm`) or not.
-    pub(super) fn new(warm: bool) -> Self {
-        Self {
-            armed: warm,
-            short: 0,
-        }
-    }
-
-    /// Records the step length `alpha` (0 for a rejected step); true once, when the last
-    /// [`SHORT_STEPS`] steps were all short.
-    pub(super) fn record(&mut self, alpha: f64) -> bool {
-        if !self.armed {
-            return false;
-        }
-        self.short = if alpha < SHORT_STEP {
-            self.short + 1
-        } else {
-            0
-        };
-        if self.short >= SHORT_STEPS {
-            self.armed = false;
-            return true;
-        }
-        false
-    }
-}
 
 /// How the first barrier parameter of a warm start is matched to its starting point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -203,49 +152,11 @@ impl<K: KktSolver> Solver<K> {
     }
 }
 
-impl<K: KktSolver> Solver<K> {
-    /// Records the step `alpha` in the re-centring watch and, when it fires, raises mu to
-    /// [`RECENTRE_SHARE`] times the current point's average complementarity (never lowers
-    /// it). Allocates nothing.
-    pub(super) fn watch_recentre(&self, st: &mut LoopState, alpha: f64) {
-        if st.recentre.record(alpha) {
-            st.mu = st
-                .mu
-                .max(RECENTRE_SHARE * self.matched_mu(st.mu, MuMatch::Mean));
-        }
-    }
-}
-
 /// `x` when it is a finite non-negative number, else 0.
 fn nonneg(x: f64) -> f64 {
     if x.is_finite() && x > 0.0 {
         x
     } else {
         0.0
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_cold_solve_never_recentres() {
-        let mut w = Recentre::new(false);
-        assert!((0..20).all(|_| !w.record(0.0)));
-    }
-
-    #[test]
-    fn a_warm_start_recentres_once_after_its_fourth_short_step_in_a_row() {
-        let mut w = Recentre::new(true);
-        let short = 0.5 * SHORT_STEP;
-        // Three short steps, then a long one: the count starts again.
-        for alpha in [short, 0.0, short, 1.0] {
-            assert!(!w.record(alpha));
-        }
-        let fired: Vec<bool> = (0..SHORT_STEPS + 3).map(|_| w.record(short)).collect();
-        assert_eq!(fired.iter().filter(|&&f| f).count(), 1, "{fired:?}");
-        assert!(fired[SHORT_STEPS - 1], "{fired:?}");
-        assert!(!w.record(short));
     }
 }

@@ -1,30 +1,25 @@
-//! CLOCK_MONOTONIC in nanoseconds: system-wide, so stamps compare across processes.
+//! Clocks in nanoseconds: CLOCK_MONOTONIC, system-wide so stamps compare across
+//! processes, and the calling thread's CPU time.
 
 /// Current CLOCK_MONOTONIC time \[ns\] (0 if the clock is unavailable, which Linux never is).
 pub fn monotonic_ns() -> u64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; clock_gettime only writes into it.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    if rc != 0 {
-        return 0;
-    }
-    (ts.tv_sec as u64)
-        .saturating_mul(1_000_000_000)
-        .saturating_add(ts.tv_nsec as u64)
+    clock_ns(libc::CLOCK_MONOTONIC)
 }
 
 /// CPU time the calling thread has run \[ns\] (CLOCK_THREAD_CPUTIME_ID; 0 if unavailable).
 /// Against the wall clock it tells whether a slow stretch ran or waited for a CPU.
 pub fn thread_cpu_ns() -> u64 {
+    clock_ns(libc::CLOCK_THREAD_CPUTIME_ID)
+}
+
+/// The time of `clock` \[ns\] (0 if it is unavailable).
+fn clock_ns(clock: libc::clockid_t) -> u64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
     // SAFETY: `ts` is a valid, writable timespec; clock_gettime only writes into it.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    let rc = unsafe { libc::clock_gettime(clock, &mut ts) };
     if rc != 0 {
         return 0;
     }

@@ -340,6 +340,7 @@ impl PlannerLoop {
         relaxed_vehicle.eps_sat = args.relaxed_saturation;
         relaxed_vehicle.scale_grip(args.relaxed_friction_scale);
         sc.spec.vehicle.scale_grip(args.friction_scale);
+        sc.spec.saturation_at_end = args.saturation_at_end == "on";
         soft_lane::setup(&mut sc, args)?;
         sc.road = sc.road.clone().with_min_path_scale(args.min_path_scale);
         sc.road.check_margin(args.lane_margin_m).map_err(|e| {

@@ -271,6 +271,7 @@ pub fn plan_input(
         steering_slew_weight: spec.steering_slew_weight,
         soft_lane_weight: spec.soft_lane.weight,
         enforce_tire_saturation: spec.enforce_tire_saturation,
+        saturation_at_end: spec.saturation_at_end,
         initial_state_fixed: fixed,
         x0,
         kappa: spec.kappa.clone(),
@@ -410,6 +411,7 @@ pub fn problem_from(input: &PlanInput) -> Result<(OcpSpec, Settings, RecordedSta
         v_max: input.v_max_mps,
         v_end_max: input.v_end_max_mps,
         enforce_tire_saturation: input.enforce_tire_saturation,
+        saturation_at_end: input.saturation_at_end,
         steering_slew_weight: input.steering_slew_weight,
         soft_lane: crate::ocp::SoftLane::new(
             input.soft_lane_weight,

@@ -47,8 +47,14 @@ fn band() -> SoftLane {
 
 /// As [`problem_w`], with the soft lane band `soft`.
 fn problem_ws(sat: bool, fixed: bool, w: f64, soft: SoftLane) -> Problem {
+    problem_wse(sat, fixed, w, soft, false)
+}
+
+/// As [`problem_ws`], with the saturation rows at the last node (x_N, u_{N-1}) when `end`.
+fn problem_wse(sat: bool, fixed: bool, w: f64, soft: SoftLane, end: bool) -> Problem {
     let mut spec = oval_spec();
     spec.enforce_tire_saturation = sat;
+    spec.saturation_at_end = end;
     spec.steering_slew_weight = w;
     spec.soft_lane = soft;
     if fixed {
@@ -104,8 +110,14 @@ fn lagrangian_grad(p: &mut Problem, z: &[f64], sigma: f64, lam: &[f64]) -> Vec<f
 
 #[test]
 fn structures_are_valid() {
-    for (sat, fixed, w) in [(true, false, 0.0), (false, true, 0.0), (true, false, 1.0)] {
-        let p = problem_w(sat, fixed, w);
+    for (sat, fixed, w, end) in [
+        (true, false, 0.0, false),
+        (false, true, 0.0, false),
+        (true, false, 1.0, false),
+        (true, true, 0.0, true),
+        (false, true, 0.0, true),
+    ] {
+        let p = problem_wse(sat, fixed, w, SoftLane::OFF, end);
         let mut seen = HashSet::new();
         for (&r, &c) in p.jr.iter().zip(&p.jc) {
             assert!(r < p.m && c < p.n);
@@ -118,7 +130,11 @@ fn structures_are_valid() {
         }
         assert_eq!(p.n, 9 * (N + 1) + 3 * N);
         let init = 9; // all nine initial-condition rows in both modes
-        let sat_rows = if sat { 2 * N } else { 0 };
+        let sat_rows = match (sat, end) {
+            (false, _) => 0,
+            (true, false) => 2 * N,
+            (true, true) => 2 * (N + 1),
+        };
         assert_eq!(p.m, init + 9 * N + 2 * N + sat_rows + 6 * (N - 1));
     }
 }
@@ -163,7 +179,15 @@ fn objective_gradient_matches_fd() {
 }
 
 fn check_jacobian(sat: bool, fixed: bool, seed: u64) {
-    let mut p = problem(sat, fixed);
+    check_jacobian_of(problem(sat, fixed), seed);
+}
+
+/// The Jacobian of `p` at a random point against central differences.
+fn check_jacobian_of(mut p: Problem, seed: u64) {
+    let (sat, fixed) = (
+        p.nlp.spec().enforce_tire_saturation,
+        p.nlp.spec().initial != InitialState::Free,
+    );
     let z = random_z(&p, seed);
     let jac = dense_jac(&mut p, &z);
     let structure: HashSet<(usize, usize)> =
@@ -215,15 +239,22 @@ fn constraint_jacobian_matches_fd_fixed_initial_no_saturation() {
 }
 
 #[test]
+fn constraint_jacobian_matches_fd_with_the_last_nodes_saturation_rows() {
+    check_jacobian_of(problem_wse(true, true, 0.0, SoftLane::OFF, true), 14);
+}
+
+#[test]
 fn lagrangian_hessian_matches_fd() {
     // Seed 22 with the steering-slew term: its curvature scales with sigma (obj_factor);
     // seed 23 with the soft lane (curvature on the e of the nodes past its bounds).
-    for (seed, w, soft) in [
-        (21u64, 0.0, SoftLane::OFF),
-        (22, 1.0, SoftLane::OFF),
-        (23, 0.0, band()),
+    // Seed 21 again with the saturation rows at the last node (x_N, u_{N-1}).
+    for (seed, w, soft, end) in [
+        (21u64, 0.0, SoftLane::OFF, false),
+        (22, 1.0, SoftLane::OFF, false),
+        (23, 0.0, band(), false),
+        (21, 0.0, SoftLane::OFF, true),
     ] {
-        let mut p = problem_ws(true, false, w, soft);
+        let mut p = problem_wse(true, false, w, soft, end);
         let z = random_z(&p, seed);
         let mut rng = Rng(seed * 7919);
         let lam: Vec<f64> = (0..p.m).map(|_| rng.range(-1.0, 1.0)).collect();
@@ -265,13 +296,19 @@ fn lagrangian_hessian_matches_fd() {
 
 /// With a helper thread (`threads = 2`) the constraints, Jacobian and Hessian are evaluated
 /// by halves of the stages on two threads; the values have the same bits as the serial
-/// evaluation, with and without the saturation rows, with a fixed and a free start.
+/// evaluation, with and without the saturation rows (and the last node's), with a fixed and
+/// a free start.
 #[test]
 fn stage_parallel_evaluation_has_the_serial_bits() {
     let worker = planner::worker::shared().unwrap();
-    for (sat, fixed, w) in [(true, true, 0.0), (false, false, 0.0), (true, false, 1.0)] {
-        let mut serial = problem_w(sat, fixed, w);
-        let mut split = problem_w(sat, fixed, w);
+    for (sat, fixed, w, end) in [
+        (true, true, 0.0, false),
+        (false, false, 0.0, false),
+        (true, false, 1.0, false),
+        (true, true, 0.0, true),
+    ] {
+        let mut serial = problem_wse(sat, fixed, w, SoftLane::OFF, end);
+        let mut split = problem_wse(sat, fixed, w, SoftLane::OFF, end);
         split.nlp.set_worker(Some(worker.clone()));
         let z = random_z(&serial, 41);
         let mut rng = Rng(43);

@@ -111,3 +111,55 @@ fn guess_round_trip_and_feasible_straight() {
     }
     assert!(nlp.max_violation(&z) > 0.1);
 }
+
+/// With `saturation_at_end` the last interval carries two more saturation rows, of node N:
+/// they read x_N's states and u_{N-1}'s controls and have the same bound as every other
+/// saturation row.
+#[test]
+fn the_last_nodes_saturation_rows_read_x_n_and_the_last_controls() {
+    let mut spec = oval_spec();
+    spec.saturation_at_end = true;
+    let nlp = ImplicitEulerNlp::<100>::new(spec).unwrap();
+    let plain = ImplicitEulerNlp::<100>::new(oval_spec()).unwrap();
+    let (d, d0) = (nlp.dims(), plain.dims());
+    assert_eq!(d.m, d0.m + 2);
+    assert_eq!(d.n, d0.n);
+    let end: Vec<usize> = (0..d.m)
+        .filter(|&i| nlp.describe_row(i).node == 100)
+        .collect();
+    assert_eq!(end.len(), 2);
+    assert_eq!(nlp.row_name(end[0]), "saturation[front]@100");
+    assert_eq!(nlp.row_name(end[1]), "saturation[rear]@100");
+    let (mut jr, mut jc) = (vec![0; d.nnz_jac], vec![0; d.nnz_jac]);
+    nlp.jac_structure(&mut jr, &mut jc);
+    let lay = nlp.layout();
+    for &row in &end {
+        let cols: Vec<usize> = jr
+            .iter()
+            .zip(&jc)
+            .filter(|(r, _)| **r == row)
+            .map(|(_, c)| *c)
+            .collect();
+        assert_eq!(cols.len(), 7, "row {row}");
+        for c in cols {
+            let (k, kind) = lay.describe(c);
+            match kind {
+                planner::ocp::layout::VarKind::State(_) => assert_eq!(k, 100, "column {c}"),
+                planner::ocp::layout::VarKind::Control(_) => assert_eq!(k, 99, "column {c}"),
+                planner::ocp::layout::VarKind::Stage(_) => panic!("stage variable {c}"),
+            }
+        }
+    }
+    let (mut xl, mut xu, mut gl, mut gu) = (
+        vec![0.0; d.n],
+        vec![0.0; d.n],
+        vec![0.0; d.m],
+        vec![0.0; d.m],
+    );
+    nlp.bounds(&mut xl, &mut xu, &mut gl, &mut gu);
+    let rear_99 = (0..d.m)
+        .find(|&i| nlp.row_name(i) == "saturation[rear]@99")
+        .unwrap();
+    assert_eq!(gu[end[1]], gu[rear_99]);
+    assert_eq!(gl[end[1]], f64::NEG_INFINITY);
+}

@@ -43,6 +43,8 @@ pub struct OvalOptions {
     pub out: PathBuf,
     /// Warm-start each plan from the previous one.
     pub warm_start: bool,
+    /// Tire saturation rows at each plan's last node too (`OcpSpec::saturation_at_end`).
+    pub saturation_at_end: bool,
     /// How a warm start's first barrier parameter is matched to the shifted point.
     pub mu_match: planner::ip::MuMatch,
 }
@@ -249,7 +251,8 @@ pub fn record_oval(
         let t = i as f64 * dt;
         let x = state_at(&xs, t)
             .ok_or_else(|| OvalError::Options(format!("t = {t} s past the lap")))?;
-        let spec = shifted_spec(&base, &track, x[ix::S], x);
+        let mut spec = shifted_spec(&base, &track, x[ix::S], x);
+        spec.saturation_at_end = opts.saturation_at_end;
         // Stamps on the drive's 10 Hz clock, so the file's duration is the drive's.
         let stamp = start + (t * 1e9).round() as u64;
         let mut input = plan_input(&spec, &settings, guess, i as u64, stamp);

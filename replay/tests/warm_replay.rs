@@ -251,6 +251,7 @@ fn the_warm_started_oval_drive_records_every_warm_start_and_replays_bit_identica
         rate_hz: 10.0,
         out: f.clone(),
         warm_start: true,
+        saturation_at_end: true,
         mu_match: planner::ip::MuMatch::DEFAULT,
     };
     let summary = replay::oval::record_oval(&opts, |_, _, _| {}).unwrap();

@@ -125,6 +125,11 @@ pub struct PlannerArgs {
     /// `off` starts every plan from the cold guess.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub warm_start: String,
+    /// Hold the tires within their slip limits at each plan's last node too, (x_N,
+    /// u_{N-1}), where implicit Euler takes the last interval's forces
+    /// (`OcpSpec::saturation_at_end`, docs/modelling.md); `off`: the paper's rows only.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub saturation_at_end: String,
     /// How a warm start's first barrier parameter is matched to the shifted point:
     /// `geometric` (`--warm-mu-factor` times the geometric mean of the complementarity
     /// products) or `mean` (their average; docs/solver.md).

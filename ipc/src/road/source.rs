@@ -239,6 +239,7 @@ fn load_track(
         v_min: TRACK_SPEEDS_MPS.0,
         v_max: TRACK_SPEEDS_MPS.1,
         enforce_tire_saturation: true,
+        saturation_at_end: false,
         steering_slew_weight: TRACK_SLEW_WEIGHT,
         v_end_max: f64::INFINITY,
         soft_lane: planner::ocp::SoftLane::OFF,

@@ -43,6 +43,7 @@ pub fn oval_spec() -> OcpSpec {
         v_min: 5.0,
         v_max: 40.0,
         enforce_tire_saturation: true,
+        saturation_at_end: false,
         steering_slew_weight: 0.0,
         v_end_max: f64::INFINITY,
         soft_lane: crate::ocp::SoftLane::OFF,

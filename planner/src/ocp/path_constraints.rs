@@ -18,13 +18,14 @@ use num_dual::DualNum;
 pub const FRICTION_ROWS: usize = 2;
 /// Jacobian entries of the friction rows per interval.
 pub const FRICTION_NNZ: usize = 4;
-/// Saturation rows per interval (front, rear) at (x_k, u_k).
+/// Saturation rows per saturation point (front, rear): at (x_k, u_k) for every interval
+/// k, and, with [`crate::ocp::OcpSpec::saturation_at_end`], at the last node (x_N, u_{N-1}).
 pub const SATURATION_ROWS: usize = 2;
 /// Model inputs the saturation rows depend on: r, V, beta, V_wr, dFz, delta, T_bf.
 pub const SATURATION_INPUTS: usize = 7;
-/// Jacobian entries of the saturation rows per interval.
+/// Jacobian entries of the saturation rows per saturation point.
 pub const SATURATION_NNZ: usize = SATURATION_ROWS * SATURATION_INPUTS;
-/// Lower-triangle Hessian entries of the saturation rows per interval.
+/// Lower-triangle Hessian entries of the saturation rows per saturation point.
 pub const SATURATION_HESS_NNZ: usize = SATURATION_INPUTS * (SATURATION_INPUTS + 1) / 2;
 /// Control-rate rows per interval k >= 1 (upper and lower for each control).
 pub const RATE_ROWS: usize = 2 * NU;
@@ -159,18 +160,27 @@ pub fn friction_jac(p: &VehicleParams, out: &mut [f64]) {
 
 // ---------------------------------------------------------------- tire saturation (R4, R5)
 
-/// Column of saturation input `l` of interval k (evaluated at (x_k, u_k)).
+/// The interval whose controls saturation point `k` uses: k itself, or N - 1 at the last
+/// node k = N (the controls of the interval whose dynamics end there).
+#[inline]
+fn sat_interval(lay: &Layout, k: usize) -> usize {
+    k.min(lay.n_intervals - 1)
+}
+
+/// Column of saturation input `l` of saturation point k (evaluated at (x_k, u_k), or at
+/// (x_N, u_{N-1}) for k = N).
 #[inline]
 fn sat_col(lay: &Layout, k: usize, l: usize) -> usize {
     if l < SAT_STATES.len() {
         lay.x(k, SAT_STATES[l])
     } else {
-        lay.u(k, SAT_CONTROLS[l - SAT_STATES.len()])
+        lay.u(sat_interval(lay, k), SAT_CONTROLS[l - SAT_STATES.len()])
     }
 }
 
-/// Builds physical (x, u) at (x_k, u_k) where saturation input `l` is `seed(z, l) * nominal`
-/// and every other entry is a constant.
+/// Builds physical (x, u) at saturation point k (x_k with the controls of
+/// [`sat_interval`]) where saturation input `l` is `seed(z, l) * nominal` and every other
+/// entry is a constant.
 #[inline(always)]
 fn sat_point<D: DualNum<Primitive = f64> + Copy>(
     lay: &Layout,
@@ -178,18 +188,19 @@ fn sat_point<D: DualNum<Primitive = f64> + Copy>(
     z: &[f64],
     seed: impl Fn(f64, usize) -> D,
 ) -> ([D; NX], [D; NU]) {
+    let ku = sat_interval(lay, k);
     let mut x: [D; NX] = std::array::from_fn(|i| D::from(z[lay.x(k, i)] * X_NOMINAL[i]));
-    let mut u: [D; NU] = std::array::from_fn(|j| D::from(z[lay.u(k, j)] * U_NOMINAL[j]));
+    let mut u: [D; NU] = std::array::from_fn(|j| D::from(z[lay.u(ku, j)] * U_NOMINAL[j]));
     for (l, &i) in SAT_STATES.iter().enumerate() {
         x[i] = seed(z[lay.x(k, i)], l) * X_NOMINAL[i];
     }
     for (l, &j) in SAT_CONTROLS.iter().enumerate() {
-        u[j] = seed(z[lay.u(k, j)], SAT_STATES.len() + l) * U_NOMINAL[j];
+        u[j] = seed(z[lay.u(ku, j)], SAT_STATES.len() + l) * U_NOMINAL[j];
     }
     (x, u)
 }
 
-/// Jacobian pattern of the saturation rows of interval k: (local row, column).
+/// Jacobian pattern of the saturation rows of saturation point k: (local row, column).
 pub fn saturation_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {
     for row in 0..SATURATION_ROWS {
         for l in 0..SATURATION_INPUTS {
@@ -212,7 +223,7 @@ pub struct SaturationRows<'a> {
 }
 
 impl SaturationRows<'_> {
-    /// Row values at (x_k, u_k).
+    /// Row values at saturation point k: (x_k, u_k), or (x_N, u_{N-1}) for k = N.
     pub fn eval(&self, k: usize, z: &[f64], out: &mut [f64]) {
         let (x, u) = sat_point::<f64>(self.lay, k, z, |v, _| v);
         let s = saturation(self.p, &x, &u);
@@ -255,7 +266,7 @@ impl SaturationRows<'_> {
         fast::saturation_hessian(self.p, &x, &u, w).write_lower(&SAT_NOMINAL, out);
     }
 
-    /// Hessian of lambda_f g_f + lambda_r g_r (the two rows of interval k), in
+    /// Hessian of lambda_f g_f + lambda_r g_r (the two rows of saturation point k), in
     /// [`saturation_hess_pattern`] order (num-dual oracle; overwrites `out`).
     #[inline(never)]
     pub fn hess(&self, k: usize, z: &[f64], lambda: &[f64], out: &mut [f64]) {
@@ -277,7 +288,7 @@ const SAT_NOMINAL: [f64; SATURATION_INPUTS] = [
     U_NOMINAL[iu::TBF],
 ];
 
-/// Hessian pattern of the saturation rows of interval k: global (row >= col) pairs.
+/// Hessian pattern of the saturation rows of saturation point k: global (row >= col) pairs.
 pub fn saturation_hess_pattern(lay: &Layout, k: usize, push: &mut impl FnMut(usize, usize)) {
     for (i, j) in lower_pairs(SATURATION_INPUTS) {
         let (a, b) = (sat_col(lay, k, i), sat_col(lay, k, j));

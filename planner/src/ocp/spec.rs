@@ -42,6 +42,12 @@ pub struct OcpSpec {
     pub v_end_max: f64,
     /// Add the tire saturation constraints (R5) when true.
     pub enforce_tire_saturation: bool,
+    /// With `enforce_tire_saturation`, also hold the tires within their slip limits at the
+    /// last node, (x_N, u_{N-1}). R5 (the paper's rows) stops at (x_{N-1}, u_{N-1}), but
+    /// implicit Euler drives the last interval with f(x_N, u_{N-1}), so without these rows
+    /// the last interval takes tire force beyond the limit (a rear wheel spun to 0.7-0.9
+    /// slip). A receding-horizon loop, whose later plans start from this tail, sets it.
+    pub saturation_at_end: bool,
     /// Weight w [1/s] of the steering-slew term added to t_N in the objective:
     /// J = t_N + w sum_{k=1}^{N-1} ((delta_k - delta_{k-1}) / delta_rate_max)^2, each term the
     /// squared time the interval's steering change takes at the rate limit. 0 is the paper's
@@ -306,6 +312,7 @@ mod tests {
             v_min: 1.0,
             v_max: 60.0,
             enforce_tire_saturation: true,
+            saturation_at_end: false,
             steering_slew_weight: 0.0,
             v_end_max: f64::INFINITY,
             soft_lane: SoftLane::OFF,

@@ -396,7 +396,10 @@ impl<const N: usize> Planner<N> {
         for i in 0..m {
             let info = self.nlp.describe_row(i);
             let src = |j: usize| match info.kind {
+                // The initial rows, and the last node's saturation rows (node N: the shifted
+                // plan holds x_N), keep their own multipliers.
                 RowKind::Initial { .. } => i,
+                RowKind::Saturation { .. } if info.node == N => i,
                 kind => {
                     let node = (info.node + j).min(N - 1);
                     (w.row_start[node]..w.row_start[node + 1])

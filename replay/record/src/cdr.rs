@@ -251,6 +251,7 @@ pub fn encode_input(e: &mut Encoder, m: &PlanInput) {
     e.f64(m.steering_slew_weight);
     e.f64(m.soft_lane_weight);
     e.bool(m.enforce_tire_saturation);
+    e.bool(m.saturation_at_end);
     e.bool(m.initial_state_fixed);
     e.f64_array(&m.x0);
     e.f64_seq(m.kappa.iter().copied());
@@ -280,6 +281,7 @@ pub fn decode_input(data: &[u8]) -> Result<PlanInput, DecodeError> {
         steering_slew_weight: d.f64("steering_slew_weight")?,
         soft_lane_weight: d.f64("soft_lane_weight")?,
         enforce_tire_saturation: d.bool("enforce_tire_saturation")?,
+        saturation_at_end: d.bool("saturation_at_end")?,
         initial_state_fixed: d.bool("initial_state_fixed")?,
         x0: d.f64_array::<STATE_LEN>("x0")?,
         kappa: d.f64_seq("kappa")?,

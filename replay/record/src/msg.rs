@@ -115,6 +115,8 @@ pub struct PlanInput {
     pub soft_lane_weight: f64,
     /// Tire saturation constraints on.
     pub enforce_tire_saturation: bool,
+    /// The tire saturation rows also at the last node, (x_N, u_{N-1}).
+    pub saturation_at_end: bool,
     /// True when `x0` is the fixed initial state (vehicle state); false: paper's free start.
     pub initial_state_fixed: bool,
     /// Initial vehicle state (zeros when free).

@@ -38,6 +38,8 @@ float64 steering_slew_weight
 # weight of leaving the soft lane bounds [s/m^2] (0: no soft lane)
 float64 soft_lane_weight
 bool enforce_tire_saturation
+# tire saturation rows also at the last node (x_N, u_{N-1})
+bool saturation_at_end
 bool initial_state_fixed
 # initial vehicle state [r, V, beta, V_wr, dFz, e, dpsi, s, t]
 float64[9] x0

@@ -105,6 +105,10 @@ enum Command {
         /// equilibrium guess).
         #[arg(long, default_value = "on", value_parser = ["on", "off"])]
         warm_start: String,
+        /// Tire saturation rows at each plan's last node too (as `planner_proc
+        /// --saturation-at-end`).
+        #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+        saturation_at_end: String,
         /// How a warm start's first barrier parameter is matched to the shifted point:
         /// geometric or mean (as `planner_proc --warm-mu`).
         #[arg(long, default_value = "geometric", value_parser = ["geometric", "mean"])]
@@ -262,6 +266,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             plans,
             rate_hz,
             warm_start,
+            saturation_at_end,
             warm_mu,
             warm_mu_factor,
             out,
@@ -281,6 +286,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 rate_hz,
                 out: out.clone(),
                 warm_start: warm_start == "on",
+                saturation_at_end: saturation_at_end == "on",
                 mu_match: planner::ip::MuMatch::parse(&warm_mu, warm_mu_factor).ok_or_else(
                     || format!("--warm-mu-factor {warm_mu_factor}: must be finite and > 0"),
                 )?,

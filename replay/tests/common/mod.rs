@@ -30,6 +30,7 @@ pub fn record(out: &Path, plans: usize) {
         rate_hz: 10.0,
         out: out.to_path_buf(),
         warm_start: false,
+        saturation_at_end: true,
         mu_match: planner::ip::MuMatch::DEFAULT,
     };
     let s = record_oval(&opts, |_, _, _| {}).unwrap();

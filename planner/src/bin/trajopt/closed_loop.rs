@@ -76,6 +76,10 @@ pub struct ClosedLoopArgs {
     /// --warm-start`; docs/solver.md); `off` starts every plan from the cold guess.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     warm_start: String,
+    /// Tire saturation rows at each plan's last node too (`planner_proc
+    /// --saturation-at-end`; docs/modelling.md).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    saturation_at_end: String,
     /// How a warm start's first barrier parameter is matched to the shifted point:
     /// geometric or mean (`planner_proc --warm-mu`).
     #[arg(long, default_value = "geometric", value_parser = ["geometric", "mean"])]
@@ -314,6 +318,8 @@ fn spawn_pair(
         .arg(args.end_speed_envelope())
         .arg("--warm-start")
         .arg(&args.warm_start)
+        .arg("--saturation-at-end")
+        .arg(&args.saturation_at_end)
         .arg("--cold-guess")
         .arg(&args.cold_guess)
         .arg("--warm-mu")

@@ -234,6 +234,7 @@ pub(super) fn finish(
         v_min,
         v_max,
         enforce_tire_saturation,
+        saturation_at_end: false,
         steering_slew_weight,
         v_end_max: f64::INFINITY,
         soft_lane: crate::ocp::SoftLane::OFF,

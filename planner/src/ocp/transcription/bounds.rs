@@ -176,10 +176,10 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             g_u[st.row_defect..st.row_defect + S::ROWS].fill(0.0);
             g_l[st.row_friction..st.row_friction + FRICTION_ROWS].fill(0.0);
             g_u[st.row_friction..st.row_friction + FRICTION_ROWS].fill(f64::INFINITY);
-            if self.spec.enforce_tire_saturation {
-                g_l[st.row_sat..st.row_sat + SATURATION_ROWS].fill(f64::NEG_INFINITY);
-                g_u[st.row_sat..st.row_sat + SATURATION_ROWS]
-                    .fill(p.eps_sat / saturation_scale(&self.spec.initial));
+            if st.sat_points > 0 {
+                let sat = st.row_sat..st.row_sat + st.sat_points * SATURATION_ROWS;
+                g_l[sat.clone()].fill(f64::NEG_INFINITY);
+                g_u[sat].fill(p.eps_sat / saturation_scale(&self.spec.initial));
                 // With a fixed (measured) x_0 the rear slip at node 0 depends on x_0 alone: a
                 // car that is already sliding would make the problem infeasible whatever the
                 // controls. That row gets a bound it never reaches (the front row stays: the

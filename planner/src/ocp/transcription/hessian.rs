@@ -116,16 +116,21 @@ impl<S: DefectScheme> HessParts<'_, S> {
         emit: &mut impl FnMut(usize, usize, f64),
     ) {
         let st = &self.stages[k];
-        let base = self.defect_off[k + 1] - self.defect_off[k];
-        let slots = &self.sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
-        let lam = &lambda[st.row_sat..st.row_sat + SATURATION_ROWS];
-        let out = &mut scratch[..SATURATION_HESS_NNZ];
-        if self.cx.oracle {
-            self.sat_rows.hess(k, x, lam, out);
-        } else {
-            self.sat_rows.hess_fast(k, x, lam, out);
+        let mut base = self.defect_off[k + 1] - self.defect_off[k];
+        for j in 0..st.sat_points {
+            let point = k + j;
+            let slots = sat_block(self.sat_slots, point);
+            let row = st.row_sat + j * SATURATION_ROWS;
+            let lam = &lambda[row..row + SATURATION_ROWS];
+            let out = &mut scratch[..SATURATION_HESS_NNZ];
+            if self.cx.oracle {
+                self.sat_rows.hess(point, x, lam, out);
+            } else {
+                self.sat_rows.hess_fast(point, x, lam, out);
+            }
+            emit_block(slots, scratch, base, emit);
+            base += SATURATION_HESS_NNZ;
         }
-        emit_block(slots, scratch, base, emit);
     }
 
     /// The (position, slot) pairs of stage k, positions as [`Self::stages`] emits them.
@@ -134,13 +139,25 @@ impl<S: DefectScheme> HessParts<'_, S> {
         for (pos, &s) in slots.iter().enumerate() {
             f(pos, s);
         }
-        if self.saturation {
-            let sat = &self.sat_slots[k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ];
-            for (pos, &s) in sat.iter().enumerate() {
-                f(slots.len() + pos, s);
-            }
+        let sat = stage_sat_slots(self.sat_slots, &self.stages[k], k);
+        for (pos, &s) in sat.iter().enumerate() {
+            f(slots.len() + pos, s);
         }
     }
+}
+
+/// The Hessian slots of interval k's saturation blocks (its [`Stage::sat_points`] points
+/// from k on; empty without saturation rows).
+fn stage_sat_slots<'a>(sat_slots: &'a [usize], st: &Stage, k: usize) -> &'a [usize] {
+    sat_slots
+        .get(k * SATURATION_HESS_NNZ..(k + st.sat_points) * SATURATION_HESS_NNZ)
+        .unwrap_or(&[])
+}
+
+/// The Hessian slots of saturation point `p`'s block.
+#[inline(always)]
+fn sat_block(sat_slots: &[usize], p: usize) -> &[usize] {
+    &sat_slots[p * SATURATION_HESS_NNZ..(p + 1) * SATURATION_HESS_NNZ]
 }
 
 /// Emits a block's values (`vals`, in `slots` order) at positions from `base`.
@@ -263,11 +280,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         let defect = |k: usize| {
             &self.hess_defect_slots[self.hess_defect_off[k]..self.hess_defect_off[k + 1]]
         };
-        let sat = |k: usize| {
-            self.hess_sat_slots
-                .get(k * SATURATION_HESS_NNZ..(k + 1) * SATURATION_HESS_NNZ)
-                .unwrap_or(&[])
-        };
+        let sat = |k: usize| stage_sat_slots(&self.hess_sat_slots, &self.stages[k], k);
         let slots = |k: usize| {
             defect(k)
                 .iter()

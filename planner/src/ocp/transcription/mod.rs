@@ -134,6 +134,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
         ])?;
         let layout = Layout::new(N, S::STAGE_VARS);
         let sat = spec.enforce_tire_saturation;
+        let sat_end = sat && spec.saturation_at_end;
         let n_init = INITIAL_ROWS.len();
         let RowLayout {
             rows,
@@ -141,7 +142,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             jac_cols,
             stages,
             jac_defect_len,
-        } = RowLayout::build::<S, N>(&scheme, layout, sat);
+        } = RowLayout::build::<S, N>(&scheme, layout, sat, sat_end);
         let m = rows.len();
 
         // Hessian: union of the defect and saturation blocks, deduplicated.
@@ -151,7 +152,7 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
             defect_slots: hess_defect_slots,
             sat_slots: hess_sat_slots,
             max_block,
-        } = HessBlocks::build::<S, N>(&scheme, layout, sat, &mut hb);
+        } = HessBlocks::build::<S, N>(&scheme, layout, sat, sat_end, &mut hb);
 
         // The objective's steering-slew and lane-band entries (none when off: the pattern
         // is unchanged).

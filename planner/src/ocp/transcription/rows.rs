@@ -2,14 +2,16 @@
 //!
 //! Rows are ordered stage by stage: first the initial-condition rows g = x_0[i], then for
 //! each interval k = 0..N-1: the scheme's defect rows, the two front friction rows (R9),
-//! the two saturation rows (R5, when enforced) and, for k >= 1, the six control-rate rows.
-//! The Jacobian entries follow the same order, each group in its pattern's order.
+//! the two saturation rows (R5, when enforced; the last interval also carries the two rows
+//! of the last node (x_N, u_{N-1}) when [`crate::ocp::OcpSpec::saturation_at_end`]) and,
+//! for k >= 1, the six control-rate rows. The Jacobian entries follow the same order, each
+//! group in its pattern's order.
 
 use super::{DefectScheme, Transcription};
 use crate::model::{CONTROL_NAMES, NU, STATE_NAMES};
 use crate::ocp::layout::Layout;
 use crate::ocp::path_constraints::{
-    friction_pattern, rate_pattern, saturation_pattern, INITIAL_ROWS,
+    friction_pattern, rate_pattern, saturation_pattern, INITIAL_ROWS, SATURATION_ROWS,
 };
 
 /// What a constraint row is.
@@ -30,7 +32,8 @@ pub enum RowKind {
         /// Evaluated at x_{k+1}.
         at_next: bool,
     },
-    /// Tire saturation (R5), front or rear axle.
+    /// Tire saturation (R5), front or rear axle, at (x_k, u_k) of the row's node k, or at
+    /// (x_N, u_{N-1}) for node N.
     Saturation {
         /// Rear axle.
         rear: bool,
@@ -62,11 +65,22 @@ pub(super) struct Stage {
     pub(super) row_defect: usize,
     pub(super) row_friction: usize,
     pub(super) row_sat: usize,
+    /// Saturation points of the interval: 0 (not enforced), 1 (node k) or 2 (the last
+    /// interval's nodes N - 1 and N), each [`SATURATION_ROWS`] rows from `row_sat` on.
+    pub(super) sat_points: usize,
     pub(super) row_rate: usize,
     pub(super) jac_defect: usize,
     pub(super) jac_friction: usize,
     pub(super) jac_sat: usize,
     pub(super) jac_rate: usize,
+}
+
+/// The saturation points (nodes) interval k of N carries: none without saturation rows,
+/// node k, or, for the last interval with `sat_end`, nodes N - 1 and N. Points number the
+/// saturation blocks: point p's rows and Hessian block are the p-th.
+pub(super) fn sat_points(sat: bool, sat_end: bool, k: usize, n: usize) -> std::ops::Range<usize> {
+    let count = usize::from(sat) * (1 + usize::from(sat_end && k + 1 == n));
+    k..k + count
 }
 
 /// Pattern sink: (local row, column).
@@ -87,11 +101,13 @@ pub(super) struct RowLayout {
 }
 
 impl RowLayout {
-    /// The rows of N intervals with `scheme`'s defects, with saturation rows when `sat`.
+    /// The rows of N intervals with `scheme`'s defects, with saturation rows when `sat`
+    /// (and at the last node too when `sat_end`).
     pub(super) fn build<S: DefectScheme, const N: usize>(
         scheme: &S,
         layout: Layout,
         sat: bool,
+        sat_end: bool,
     ) -> Self {
         let mut rows = Vec::new();
         let mut jac_rows = Vec::new();
@@ -144,15 +160,18 @@ impl RowLayout {
             // Saturation (R5).
             st.row_sat = rows.len();
             st.jac_sat = jac_rows.len();
-            if sat {
+            let points = sat_points(sat, sat_end, k, N);
+            st.sat_points = points.len();
+            for (j, node) in points.enumerate() {
                 for rear in [false, true] {
                     rows.push(RowInfo {
                         kind: RowKind::Saturation { rear },
-                        node: k,
+                        node,
                     });
                 }
-                push_group(st.row_sat, &mut jac_rows, &mut jac_cols, &mut |p| {
-                    saturation_pattern(&layout, k, &mut |r, c| p(r, c))
+                let base = st.row_sat + j * SATURATION_ROWS;
+                push_group(base, &mut jac_rows, &mut jac_cols, &mut |p| {
+                    saturation_pattern(&layout, node, &mut |r, c| p(r, c))
                 });
             }
             // Control rates.

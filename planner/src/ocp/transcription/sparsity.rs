@@ -3,6 +3,7 @@
 //! and the objective's steering-slew entries, each (row, column) pair stored once. Every
 //! block keeps the slots its values add into.
 
+use super::rows::sat_points;
 use super::DefectScheme;
 use crate::ocp::layout::Layout;
 use crate::ocp::path_constraints::{saturation_hess_pattern, SATURATION_HESS_NNZ};
@@ -45,8 +46,9 @@ pub(super) struct HessBlocks {
     pub(super) defect_off: Vec<usize>,
     /// The defect blocks' slots, interval by interval, in `hess_pattern` order.
     pub(super) defect_slots: Vec<usize>,
-    /// The saturation blocks' slots, [`SATURATION_HESS_NNZ`] per interval (none when the
-    /// saturation rows are not enforced).
+    /// The saturation blocks' slots, [`SATURATION_HESS_NNZ`] per saturation point: one per
+    /// interval, and the last node's after them (none when the saturation rows are not
+    /// enforced).
     pub(super) sat_slots: Vec<usize>,
     /// Entries of the largest block (the size of a scratch buffer for one block's values).
     pub(super) max_block: usize,
@@ -54,11 +56,12 @@ pub(super) struct HessBlocks {
 
 impl HessBlocks {
     /// Adds the blocks of N intervals with `scheme`'s defects (and saturation rows when
-    /// `sat`) to `hb`, interval by interval.
+    /// `sat`, with the last node's when `sat_end`) to `hb`, interval by interval.
     pub(super) fn build<S: DefectScheme, const N: usize>(
         scheme: &S,
         layout: Layout,
         sat: bool,
+        sat_end: bool,
         hb: &mut HessBuilder,
     ) -> Self {
         let mut hess_defect_off = vec![0];
@@ -72,8 +75,8 @@ impl HessBlocks {
             });
             hess_defect_off.push(hess_defect_slots.len());
             max_block = max_block.max(hess_defect_off[k + 1] - hess_defect_off[k]);
-            if sat {
-                saturation_hess_pattern(&layout, k, &mut |r, c| {
+            for node in sat_points(sat, sat_end, k, N) {
+                saturation_hess_pattern(&layout, node, &mut |r, c| {
                     let s = hb.slot(r, c);
                     hess_sat_slots.push(s);
                 });

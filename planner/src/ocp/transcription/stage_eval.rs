@@ -6,7 +6,8 @@
 use super::rows::Stage;
 use super::{DefectScheme, Transcription};
 use crate::ocp::path_constraints::{
-    friction_eval, friction_jac, rate_eval, rate_jac, SaturationRows,
+    friction_eval, friction_jac, rate_eval, rate_jac, SaturationRows, SATURATION_NNZ,
+    SATURATION_ROWS,
 };
 use crate::ocp::scaling::saturation_scale;
 use crate::worker;
@@ -55,9 +56,9 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 let d = st.row_defect - off;
                 self.scheme.eval(&cx, k, x, &mut out[d..d + S::ROWS]);
                 friction_eval(p, lay, k, x, &mut out[st.row_friction - off..]);
-                if self.spec.enforce_tire_saturation {
-                    self.saturation_rows()
-                        .eval(k, x, &mut out[st.row_sat - off..]);
+                for j in 0..st.sat_points {
+                    let r = st.row_sat + j * SATURATION_ROWS - off;
+                    self.saturation_rows().eval(k + j, x, &mut out[r..]);
                 }
                 if k >= 1 {
                     rate_eval(p, lay, k, x, &mut out[st.row_rate - off..]);
@@ -67,12 +68,13 @@ impl<S: DefectScheme, const N: usize> Transcription<S, N> {
                 let (d, len) = (st.jac_defect - off, self.jac_defect_len[k]);
                 self.scheme.jac(&cx, k, x, &mut out[d..d + len]);
                 friction_jac(p, &mut out[st.jac_friction - off..]);
-                if self.spec.enforce_tire_saturation {
-                    let (rows, out) = (self.saturation_rows(), &mut out[st.jac_sat - off..]);
+                for j in 0..st.sat_points {
+                    let e = st.jac_sat + j * SATURATION_NNZ - off;
+                    let (rows, out) = (self.saturation_rows(), &mut out[e..]);
                     if cx.oracle {
-                        rows.jac(k, x, out);
+                        rows.jac(k + j, x, out);
                     } else {
-                        rows.jac_fast(k, x, out);
+                        rows.jac_fast(k + j, x, out);
                     }
                 }
                 if k >= 1 {

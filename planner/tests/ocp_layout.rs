@@ -2,7 +2,17 @@
 
 use planner::ip::Nlp;
 use planner::ocp::fixtures::oval_spec;
+use planner::ocp::layout::VarKind;
 use planner::ocp::{ImplicitEulerNlp, RowKind, TranscriptionError};
+
+/// The variable and row bounds (x_l, x_u, g_l, g_u) of `nlp`.
+fn bounds<const N: usize>(nlp: &ImplicitEulerNlp<N>) -> [Vec<f64>; 4] {
+    let d = nlp.dims();
+    let [mut xl, mut xu] = [vec![0.0; d.n], vec![0.0; d.n]];
+    let [mut gl, mut gu] = [vec![0.0; d.m], vec![0.0; d.m]];
+    nlp.bounds(&mut xl, &mut xu, &mut gl, &mut gu);
+    [xl, xu, gl, gu]
+}
 
 #[test]
 fn wrong_n_is_rejected() {
@@ -51,13 +61,7 @@ fn rows_bounds_and_names() {
     // No terminal s_N row (implied by s_0 = 0 and the s defects).
     assert!(!names.iter().any(|n| n.contains("terminal")));
 
-    let (mut xl, mut xu, mut gl, mut gu) = (
-        vec![0.0; d.n],
-        vec![0.0; d.n],
-        vec![0.0; d.m],
-        vec![0.0; d.m],
-    );
-    nlp.bounds(&mut xl, &mut xu, &mut gl, &mut gu);
+    let [xl, xu, _, gu] = bounds(&nlp);
     let lay = nlp.layout();
     assert_eq!((xl[lay.x(100, 1)], xu[lay.x(100, 1)]), (0.5, 4.0)); // V in [5, 40] / 10
     assert_eq!((xl[lay.x(3, 5)], xu[lay.x(3, 5)]), (-4.0, 4.0)); // e
@@ -144,19 +148,13 @@ fn the_last_nodes_saturation_rows_read_x_n_and_the_last_controls() {
         for c in cols {
             let (k, kind) = lay.describe(c);
             match kind {
-                planner::ocp::layout::VarKind::State(_) => assert_eq!(k, 100, "column {c}"),
-                planner::ocp::layout::VarKind::Control(_) => assert_eq!(k, 99, "column {c}"),
-                planner::ocp::layout::VarKind::Stage(_) => panic!("stage variable {c}"),
+                VarKind::State(_) => assert_eq!(k, 100, "column {c}"),
+                VarKind::Control(_) => assert_eq!(k, 99, "column {c}"),
+                VarKind::Stage(_) => panic!("stage variable {c}"),
             }
         }
     }
-    let (mut xl, mut xu, mut gl, mut gu) = (
-        vec![0.0; d.n],
-        vec![0.0; d.n],
-        vec![0.0; d.m],
-        vec![0.0; d.m],
-    );
-    nlp.bounds(&mut xl, &mut xu, &mut gl, &mut gu);
+    let [_, _, gl, gu] = bounds(&nlp);
     let rear_99 = (0..d.m)
         .find(|&i| nlp.row_name(i) == "saturation[rear]@99")
         .unwrap();

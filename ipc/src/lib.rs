@@ -6,7 +6,7 @@
 //! controller of the simple feedback kind, [`controller`] the feed-forward plus LQR one
 //! ([`lqr`]: its gains), fed the state [`estimator`] filters; [`mismatch`] makes the plant differ from
 //! the planner's model; [`planner_proc`] and [`tracker_proc`] are the two process loops;
-//! [`stats`] collects latencies; [`kinds`] counts plans by kind; [`out`] writes the
+//! [`lockstep`] runs the two on simulated time alone; [`stats`] collects latencies; [`kinds`] counts plans by kind; [`out`] writes the
 //! standard streams without panicking
 //! on a closed pipe.
 #![deny(missing_docs)]
@@ -16,6 +16,7 @@ pub mod clock;
 pub mod controller;
 pub mod estimator;
 pub mod kinds;
+pub mod lockstep;
 pub mod lqr;
 pub mod mismatch;
 pub mod msg;

@@ -68,6 +68,9 @@ pub const FLAG_STALE: u32 = 1;
 pub const FLAG_STOPPED: u32 = 2;
 /// [`VehicleState::flags`]: the plant simulation is running (a first plan arrived).
 pub const FLAG_RUNNING: u32 = 4;
+/// [`VehicleState::flags`]: plan from this state now (lockstep: the tracker's simulation
+/// waits for the answer; `docs/closed-loop.md`, "Lockstep").
+pub const FLAG_PLAN_NOW: u32 = 8;
 
 /// Measured vehicle state published by the tracker (the plant's full model state).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]

@@ -2,7 +2,8 @@
 //! at a fixed rate over the road ahead, and publishes each trajectory written in place
 //! into a loaned shared-memory sample. Each plan names the state it starts from by the
 //! publisher's run id and the state's seq ([`LastPlanned`]), so a restarted tracker's
-//! states are planned even when their seqs repeat its predecessor's.
+//! states are planned even when their seqs repeat its predecessor's. With `--lockstep` it
+//! plans from each state the tracker flags, under iteration caps (`crate::lockstep`).
 //!
 //! Allocation: receiving, validating, sampling the road window, the domain check, shifting
 //! the warm start, writing and sending the sample allocate nothing, and
@@ -26,7 +27,7 @@ use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 
 use crate::clock::{monotonic_ns, thread_cpu_ns};
 use crate::elog;
-use crate::msg::{RunId, Trajectory, VehicleState, HORIZON_N};
+use crate::msg::{RunId, Trajectory, VehicleState, FLAG_PLAN_NOW, HORIZON_N};
 use crate::road::{RoadWindow, Scenario, StartRamp};
 use crate::services::{ipc_err, wait_events, IpcError, Services, Svc};
 use crate::shutdown::StdinWatch;
@@ -36,6 +37,7 @@ mod args;
 pub mod budget;
 mod end_speed;
 mod intake;
+mod lockstep;
 pub mod publish_policy;
 mod record;
 mod relaxed;
@@ -227,6 +229,8 @@ struct PlannerLoop {
     policy: publish_policy::Policy,
     /// Solve budgets \[ms\]: steady, and until the first plan is sent.
     budget_ms: f64,
+    /// Lockstep's iteration caps (`None`: real time, wall-clock budgets).
+    lockstep: Option<lockstep::Caps>,
     first_budget_ms: f64,
     /// Cycles that solved (the recording's seq).
     cycles: u64,
@@ -362,8 +366,16 @@ impl PlannerLoop {
         let ds = sc.ds();
         let (v_min, v_max) = (sc.spec.v_min, sc.spec.v_max);
         let envelope = end_speed::setup(&sc, args);
+        let lockstep =
+            lockstep::Caps::from_args(args, (budget_ms, first_budget_ms), settings.max_iter)?;
+        if let Some(caps) = &lockstep {
+            settings = caps.apply(settings, false);
+        }
         let recorded_settings = settings;
         settings.max_time_s = first_budget_ms * 1e-3;
+        if let Some(caps) = &lockstep {
+            settings = caps.apply(settings, true);
+        }
         let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         let dims = (
@@ -439,6 +451,7 @@ impl PlannerLoop {
             policy: publish_policy::Policy::default(),
             budget_ms,
             first_budget_ms,
+            lockstep,
             cycles: 0,
             first_cycle_ms: 0.0,
             latest: None,
@@ -535,6 +548,13 @@ impl PlannerLoop {
     /// road window, the warm start's shift, or the machine) comes out of the solve.
     /// Allocates nothing.
     fn budget_from(&mut self, t0: Instant) {
+        if let Some(caps) = self.lockstep {
+            let settings = caps.apply(*self.cy.planner.solver().settings(), !self.startup_over);
+            if let Err(e) = self.cy.planner.solver_mut().set_settings(settings) {
+                elog!("planner: cannot set the cycle's iteration cap: {e}");
+            }
+            return;
+        }
         let budget_ms = if self.startup_over {
             self.budget_ms
         } else {
@@ -760,9 +780,14 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             break;
         }
         let now = Instant::now();
-        let wait = next_tick
-            .saturating_duration_since(now)
-            .clamp(Duration::from_millis(1), Duration::from_millis(100));
+        // In lockstep a flagged state's event wakes the planner; nothing is due before.
+        let wait = if pl.lockstep.is_some() {
+            Duration::from_millis(100)
+        } else {
+            next_tick
+                .saturating_duration_since(now)
+                .clamp(Duration::from_millis(1), Duration::from_millis(100))
+        };
         if let Err(e) = wait_events(&ports.listener, wait) {
             if ports.svc.termination_requested() {
                 break;
@@ -770,15 +795,25 @@ pub fn run(args: &PlannerArgs) -> Result<serde_json::Value, PlannerProcError> {
             return Err(e.into());
         }
         pl.receive(&ports)?;
-        if Instant::now() < next_tick {
-            continue;
-        }
         let Some(state) = pl.latest else { continue };
         if pl.planned.is_planned(&state) {
             continue;
         }
-        next_tick = (next_tick + period).max(Instant::now());
+        // In lockstep the tracker flags the states to plan from and waits; else the
+        // planner plans from the latest state on its own clock.
+        if pl.lockstep.is_some() {
+            if state.flags & FLAG_PLAN_NOW == 0 {
+                continue;
+            }
+        } else if Instant::now() < next_tick {
+            continue;
+        } else {
+            next_tick = (next_tick + period).max(Instant::now());
+        }
         let Some(solved) = pl.plan_cycle(&state) else {
+            if pl.lockstep.is_some() {
+                pl.decline(&ports, &state)?;
+            }
             continue;
         };
         pl.send(&ports, &state, &solved)?;

@@ -1,6 +1,7 @@
 //! The tracker process: simulates the plant in real time (RK4 at a fixed step), tracks the
 //! latest valid trajectory (feed-forward + feedback), publishes the vehicle state at a
-//! fixed rate, flags a stale plan and brakes to a stop, and reports tracking errors.
+//! fixed rate, flags a stale plan and brakes to a stop, and reports tracking errors. With
+//! `--lockstep` it runs on simulated time instead and waits for each plan (`crate::lockstep`).
 //!
 //! Each run draws its own run id, stamps it on every state it publishes and follows only
 //! plans made from its own states ([`crate::tracker::Ownership`]); other valid plans are counted as foreign.
@@ -30,6 +31,7 @@ use crate::tracker::{brake_to_stop, Gains};
 
 mod inbox;
 mod laps;
+mod lockstep;
 mod outcome;
 mod start;
 
@@ -127,6 +129,19 @@ pub struct TrackerArgs {
     /// After stopping on a stale plan, keep publishing for this long before exiting [s].
     #[arg(long, default_value_t = 0.5)]
     pub linger_s: f64,
+    /// Lockstep with the planner (`crate::lockstep`): flag one state per planning period
+    /// of simulated time, wait for its answer, and drive the plan from c n ms after its
+    /// state (n its iterations, c --lockstep-ms-per-iter); the simulation runs as fast as
+    /// the plans come, not on the wall clock, and a run repeats bit for bit.
+    #[arg(long)]
+    pub lockstep: bool,
+    /// The planner's rate in lockstep [Hz] (its --rate-hz).
+    #[arg(long, default_value_t = 10.0)]
+    pub rate_hz: f64,
+    /// Modelled time of one solver iteration in lockstep [ms] (the planner's
+    /// --lockstep-ms-per-iter).
+    #[arg(long, default_value_t = crate::lockstep::MS_PER_ITER)]
+    pub lockstep_ms_per_iter: f64,
 }
 
 /// Why the tracker process failed.
@@ -328,6 +343,12 @@ struct TrackerLoop {
     /// Braking to a stop in the lane because the planner found no feasible plan (obstacle
     /// roads: a non-converged plan is never followed there); latched.
     no_feasible_plan: bool,
+    /// Simulated time when the active plan was taken \[s\] (lockstep's stale clock).
+    last_plan_t: f64,
+    /// The state seq of the last own plan or notice received (lockstep waits for it).
+    answered_seq: u64,
+    /// Lockstep's schedule and the plan waiting for its arrival time (`None`: real time).
+    lockstep: Option<lockstep::Schedule>,
 }
 
 impl TrackerLoop {
@@ -419,6 +440,9 @@ impl TrackerLoop {
             log,
             start,
             no_feasible_plan: false,
+            last_plan_t: 0.0,
+            answered_seq: 0,
+            lockstep: lockstep::Schedule::from_args(args).map_err(TrackerProcError::Setup)?,
         })
     }
 
@@ -434,6 +458,7 @@ impl TrackerLoop {
             {
                 continue;
             }
+            self.answered_seq = self.answered_seq.max(m.from_state_seq);
             if m.is_no_plan() {
                 self.notice(m);
                 continue;
@@ -447,14 +472,16 @@ impl TrackerLoop {
                 continue;
             }
             self.kinds.count_code(m.kind);
-            *self.plan = *m;
-            self.have_plan = true;
-            self.last_plan_at = Instant::now();
-            if self.stale && !self.car.plant.stopped {
-                elog!("tracker: fresh plan {} after stale period; resuming", m.seq);
-                self.stale = false;
+            let running = self.sim_start.is_some();
+            match self.lockstep.as_mut() {
+                // In lockstep a plan arrives after its modelled solve time.
+                Some(ls) if running => ls.stage(m, self.car.plant.x[ix::T]),
+                _ => {
+                    *self.plan = *m;
+                    self.took_plan();
+                }
             }
-            if self.sim_start.is_none() {
+            if !running {
                 self.sim_start = Some(Instant::now());
                 elog!(
                     "tracker: first plan {} ({} iterations); running",
@@ -464,6 +491,20 @@ impl TrackerLoop {
             }
         }
         Ok(())
+    }
+
+    /// Marks the plan in `self.plan` as just taken: fresh, and the end of a stale period.
+    fn took_plan(&mut self) {
+        self.have_plan = true;
+        self.last_plan_at = Instant::now();
+        self.last_plan_t = self.car.plant.x[ix::T];
+        if self.stale && !self.car.plant.stopped {
+            elog!(
+                "tracker: fresh plan {} after stale period; resuming",
+                self.plan.seq
+            );
+            self.stale = false;
+        }
     }
 
     /// Takes a notice that the planner's cycle had nothing drivable. The tracker holds the
@@ -495,25 +536,35 @@ impl TrackerLoop {
     /// pass), tracking the active plan or braking to a stop once it is stale.
     fn advance(&mut self, args: &TrackerArgs, now: Instant) {
         let Some(t0) = self.sim_start else { return };
+        let age_s = now.duration_since(self.last_plan_at).as_secs_f64();
+        self.check_stale(args, age_s);
+        self.step_to(args, now.duration_since(t0).as_secs_f64() * args.time_scale);
+    }
+
+    /// Flags the plan stale once it is `age_s` old, past --stale-after-s: from then on the
+    /// car brakes to a stop.
+    fn check_stale(&mut self, args: &TrackerArgs, age_s: f64) {
+        if self.stale || !self.have_plan || age_s <= args.stale_after_s {
+            return;
+        }
+        self.stale = true;
+        self.ever_stale = true;
+        self.stale_at_s = self.car.plant.x[ix::T];
+        self.e_hold = self.measured[ix::E];
+        elog!(
+            "tracker: plan {} is stale (no new plan for {:.2} s); braking to a stop",
+            self.plan.seq,
+            args.stale_after_s
+        );
+    }
+
+    /// Steps the simulation to simulated time `target_t` (at most 1 s per call), tracking
+    /// the active plan or braking to a stop without one.
+    fn step_to(&mut self, args: &TrackerArgs, target_t: f64) {
         let params = self.sc.spec.vehicle;
         let road = &self.sc.road;
         let car = &mut self.car;
         let stats = &mut self.stats;
-        if !self.stale
-            && self.have_plan
-            && now.duration_since(self.last_plan_at).as_secs_f64() > args.stale_after_s
-        {
-            self.stale = true;
-            self.ever_stale = true;
-            self.stale_at_s = car.plant.x[ix::T];
-            self.e_hold = self.measured[ix::E];
-            elog!(
-                "tracker: plan {} is stale (no new plan for {:.2} s); braking to a stop",
-                self.plan.seq,
-                args.stale_after_s
-            );
-        }
-        let target_t = now.duration_since(t0).as_secs_f64() * args.time_scale;
         let max_steps = (1.0 / args.control_dt_s) as usize;
         let mut steps = 0;
         while car.plant.x[ix::T] + 0.5 * args.control_dt_s < target_t && steps < max_steps {
@@ -568,9 +619,15 @@ impl TrackerLoop {
         }
     }
 
-    /// Publishes the plant state with its flags (running, stale, stopped).
-    fn publish(&mut self, ports: &Ports, now: Instant) -> Result<(), IpcError> {
-        let mut flags = 0;
+    /// Publishes the plant state with its flags (running, stale, stopped, and `extra`);
+    /// returns the message sent.
+    fn publish(
+        &mut self,
+        ports: &Ports,
+        now: Instant,
+        extra: u32,
+    ) -> Result<VehicleState, IpcError> {
+        let mut flags = extra;
         if self.sim_start.is_some() {
             flags |= FLAG_RUNNING;
         }
@@ -585,12 +642,10 @@ impl TrackerLoop {
             }
         }
         let seq = self.inbox.own.next_seq();
-        publish_state(
-            &ports.publisher,
-            &ports.notifier,
-            VehicleState::new(self.sc.id, seq, flags, self.measured)
-                .with_run_id(self.inbox.own.run_id()),
-        )
+        let msg = VehicleState::new(self.sc.id, seq, flags, self.measured)
+            .with_run_id(self.inbox.own.run_id());
+        publish_state(&ports.publisher, &ports.notifier, msg)?;
+        Ok(msg)
     }
 
     /// Why the run ends after the pass at `now`, if it does.
@@ -687,6 +742,10 @@ impl TrackerLoop {
             self.controller.preview_s(),
         );
         self.kinds.add_json(&mut obj);
+        obj["lockstep"] = self
+            .lockstep
+            .as_ref()
+            .map_or(serde_json::Value::Null, lockstep::Schedule::json);
         obj
     }
 }
@@ -696,7 +755,6 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
     let mut tl = TrackerLoop::setup(args)?;
     let ports = Ports::open(args)?;
     let started = Instant::now();
-    let mut next_pub = started;
     elog!(
         "tracker: up (prefix {}, road {:#018x}, run id {:#018x}, plant dt {} s, control {} s, publish {} s, distance {:.1} m)",
         args.service_prefix,
@@ -707,23 +765,45 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
         tl.publish_dt,
         tl.distance
     );
-    let end_reason;
+    let end_reason = if tl.lockstep.is_some() {
+        lockstep::run(&mut tl, args, &ports)?
+    } else {
+        real_time(&mut tl, args, &ports, started)?
+    };
+    let mut report = tl.report(args, end_reason);
+    laps::finish_report(&mut report, &tl.log, outcome(&tl, end_reason), tl.start);
+    report["no_feasible_plan_braking"] = tl.no_feasible_plan.into();
+    if let Some(dir) = &args.trace_dir {
+        if let Err(e) = tl.log.write(dir) {
+            elog!("tracker: --trace-dir: {e}");
+        }
+    }
+    Ok(report)
+}
+
+/// The real-time loop: steps the simulation to the wall clock, publishes the state every
+/// publish period and takes each plan as it comes; returns why the drive ended.
+fn real_time(
+    tl: &mut TrackerLoop,
+    args: &TrackerArgs,
+    ports: &Ports,
+    started: Instant,
+) -> Result<&'static str, TrackerProcError> {
+    let mut next_pub = started;
     loop {
         if ports.stdin.closed() || ports.svc.termination_requested() {
-            end_reason = "stop requested";
-            break;
+            return Ok("stop requested");
         }
         let wait = next_pub
             .saturating_duration_since(Instant::now())
             .clamp(Duration::from_micros(100), Duration::from_millis(100));
         if let Err(e) = wait_events(&ports.listener, wait) {
             if ports.svc.termination_requested() {
-                end_reason = "stop requested";
-                break;
+                return Ok("stop requested");
             }
             return Err(e.into());
         }
-        tl.receive(&ports)?;
+        tl.receive(ports)?;
         let now = Instant::now();
         if tl.sim_start.is_none()
             && now.duration_since(started).as_secs_f64() > args.first_plan_timeout_s
@@ -734,23 +814,13 @@ pub fn run(args: &TrackerArgs) -> Result<serde_json::Value, TrackerProcError> {
             continue;
         }
         tl.advance(args, now);
-        tl.publish(&ports, now)?;
+        tl.publish(ports, now, 0)?;
         next_pub += Duration::from_secs_f64(tl.publish_dt / args.time_scale);
         if next_pub < now {
             next_pub = now;
         }
         if let Some(reason) = tl.end_reason(args, now) {
-            end_reason = reason;
-            break;
+            return Ok(reason);
         }
     }
-    let mut report = tl.report(args, end_reason);
-    laps::finish_report(&mut report, &tl.log, outcome(&tl, end_reason), tl.start);
-    report["no_feasible_plan_braking"] = tl.no_feasible_plan.into();
-    if let Some(dir) = &args.trace_dir {
-        if let Err(e) = tl.log.write(dir) {
-            elog!("tracker: --trace-dir: {e}");
-        }
-    }
-    Ok(report)
 }

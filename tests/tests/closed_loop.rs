@@ -185,6 +185,89 @@ fn closed_loop_recording_replays_bit_identically() {
     assert_eq!(r["different"], 0, "{stderr}");
 }
 
+/// The plans a trace folder's plans.csv logs, without the solve's wall-clock time (the one
+/// column that is the machine's, not the run's).
+fn plans_without_solve_time(dir: &std::path::Path) -> Vec<String> {
+    let text = std::fs::read_to_string(dir.join("plans.csv")).expect("plans.csv");
+    let header: Vec<&str> = text.lines().next().unwrap_or("").split(',').collect();
+    let skip = header.iter().position(|h| *h == "solve_time_s");
+    assert!(skip.is_some(), "plans.csv has no solve_time_s column");
+    text.lines()
+        .map(|l| {
+            l.split(',')
+                .enumerate()
+                .filter(|(i, _)| Some(*i) != skip)
+                .map(|(_, f)| f)
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect()
+}
+
+/// In lockstep the tracker waits for each plan and the solves are bounded by iterations:
+/// two laps of the oval against the default mismatch (seeded noise) drive the same bits,
+/// plan for plan and step for step, and every plan recorded replays bit-identically.
+#[test]
+fn two_lockstep_laps_against_the_default_mismatch_drive_the_same_bits_and_replay() {
+    let _serial = serial();
+    let tmp = std::env::temp_dir().join(format!("e2e-lockstep-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).expect("temporary folder");
+    let run = |name: &str, record: bool| {
+        let dir = tmp.join(name);
+        let mut extra = vec![
+            "--lockstep".to_string(),
+            "--mismatch".into(),
+            "default".into(),
+            "--trace-dir".into(),
+            dir.to_string_lossy().into_owned(),
+        ];
+        if record {
+            extra.push("--record".into());
+            extra.push(tmp.join("lap.mcap").to_string_lossy().into_owned());
+        }
+        let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
+        (run_closed_loop(0.0, &extra), dir)
+    };
+    let (a, dir_a) = run("a", true);
+    let (b, dir_b) = run("b", false);
+    for v in [&a, &b] {
+        assert_eq!(v["clock"], "lockstep", "{v}");
+        assert_eq!(v["lane_kept"], true, "{v}");
+        assert!(
+            v["laps_or_distance_m"].as_f64().unwrap_or(0.0) > 250.0,
+            "{v}"
+        );
+        assert!(
+            v["planner"]["lockstep"]["max_iter"].as_u64().unwrap_or(0) > 0,
+            "{v}"
+        );
+    }
+    let driven = |d: &std::path::Path| std::fs::read(d.join("driven.csv")).expect("driven.csv");
+    assert!(driven(&dir_a) == driven(&dir_b), "the driven traces differ");
+    assert_eq!(
+        plans_without_solve_time(&dir_a),
+        plans_without_solve_time(&dir_b)
+    );
+    for k in [
+        "max_lateral_error_m",
+        "min_edge_margin_m",
+        "lap_times_s",
+        "plans_received",
+    ] {
+        assert_eq!(a[k], b[k], "{k}");
+    }
+
+    let replay = bin_dir().join("replay");
+    let path = tmp.join("lap.mcap").to_string_lossy().into_owned();
+    let (r, succeeded, stderr) = replay_run_json(&replay, &path);
+    let _ = std::fs::remove_dir_all(&tmp);
+    assert!(succeeded, "replay run failed:\n{stderr}");
+    let inputs = a["planner"]["recording"]["inputs"].as_u64().unwrap_or(0);
+    assert!(inputs > 100, "{a}");
+    assert_eq!(r["identical"].as_u64(), Some(inputs), "{stderr}");
+    assert_eq!(r["different"], 0, "{stderr}");
+}
+
 /// Warm solves capped at 4 iterations fall back to a cold solve left 22 of the solver's
 /// 26, which ends at the cap: the cycle fails. The cycle after each failure runs its warm
 /// solve under `--warm-max-iter-after-failure 2` instead, so its fall-back gets 24; each

@@ -151,6 +151,15 @@ pub struct PlannerArgs {
     /// about half of an 80 ms budget on a 2-core machine.
     #[arg(long, value_name = "K", default_value_t = 40)]
     pub warm_max_iter_after_failure: usize,
+    /// Lockstep with the tracker (`crate::lockstep`): plan from each state the tracker
+    /// flags, at once, instead of on the wall clock, with each solve bounded by
+    /// iterations, --budget-ms / --lockstep-ms-per-iter, instead of by time; a run then
+    /// repeats bit for bit on any machine.
+    #[arg(long)]
+    pub lockstep: bool,
+    /// Modelled time of one solver iteration in lockstep [ms] (> 0, at most the period).
+    #[arg(long, default_value_t = crate::lockstep::MS_PER_ITER)]
+    pub lockstep_ms_per_iter: f64,
     /// Stop when stdin reaches EOF (used by `trajopt closed-loop`).
     #[arg(long)]
     pub exit_on_stdin_eof: bool,

@@ -69,6 +69,14 @@ impl PlannerLoop {
             "cycles_past_budget_off_cpu": self.past_budget_off_cpu,
             "state_age_at_receive_us": self.state_ipc_lat.json_us(),
             "rate_hz": args.rate_hz,
+            "lockstep": match &self.lockstep {
+                Some(caps) => serde_json::json!({
+                    "ms_per_iter": args.lockstep_ms_per_iter,
+                    "max_iter": caps.steady,
+                    "first_max_iter": caps.first,
+                }),
+                None => serde_json::Value::Null,
+            },
             "recording": recording,
         });
         self.policy.sent.add_json(&mut v);

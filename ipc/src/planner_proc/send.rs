@@ -59,7 +59,7 @@ impl PlannerLoop {
     /// obstacles the car does not wait for a first plan on it (it brakes in its lane), so
     /// the steady budget applies from the first notice; on a closed road the car waits for
     /// its first plan, which keeps the start-up budget.
-    fn notify_no_plan(
+    pub(super) fn notify_no_plan(
         &mut self,
         ports: &Ports,
         state: &VehicleState,
@@ -111,9 +111,11 @@ impl PlannerLoop {
     /// its time went: the solve (how it started, its status and iterations) or the send,
     /// and the planner thread's CPU time in the cycle. A cycle whose CPU time stayed within
     /// the allowance is also counted as off the CPU: the thread waited, it did not compute.
+    /// Lockstep counts none (its budget is in iterations).
     fn note_overrun(&mut self, solved: &Solved, cycle_ms: f64) {
         let limit_ms = self.budget_ms + OVERRUN_ALLOWANCE_MS;
-        if cycle_ms <= limit_ms {
+        // In lockstep the budget is the iteration cap; the wall clock binds no cycle.
+        if cycle_ms <= limit_ms || self.lockstep.is_some() {
             return;
         }
         let cpu_ms = thread_cpu_ns().saturating_sub(solved.cpu_t0_ns) as f64 * 1e-6;

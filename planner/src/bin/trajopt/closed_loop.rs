@@ -36,6 +36,17 @@ pub struct ClosedLoopArgs {
     /// Replanning rate [Hz].
     #[arg(long, default_value_t = 10.0)]
     rate_hz: f64,
+    /// Run the two processes in lockstep on simulated time (`ipc::lockstep`,
+    /// docs/closed-loop.md): the tracker waits for each plan, each solve is bounded by
+    /// --budget-ms / --lockstep-ms-per-iter iterations and its plan is driven that many
+    /// modelled milliseconds after its state. The run repeats bit for bit on any machine
+    /// and takes as long as its solves, not as the lap.
+    #[arg(long)]
+    lockstep: bool,
+    /// Modelled time of one solver iteration in lockstep [ms] (default: the processes'
+    /// own, 0.6).
+    #[arg(long, requires = "lockstep")]
+    lockstep_ms_per_iter: Option<f64>,
     /// iceoryx2 service prefix (default: unique per run).
     #[arg(long)]
     service_prefix: Option<String>,
@@ -284,10 +295,16 @@ fn spawn_pair(
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit());
         args.road.pass(c);
+        c.arg("--rate-hz").arg(args.rate_hz.to_string());
+        if args.lockstep {
+            c.arg("--lockstep");
+        }
+        if let Some(ms) = args.lockstep_ms_per_iter {
+            c.arg("--lockstep-ms-per-iter").arg(ms.to_string());
+        }
     };
     let mut pc = Command::new(planner_exe);
     files(&mut pc);
-    pc.arg("--rate-hz").arg(args.rate_hz.to_string());
     if let Some(path) = &args.record {
         pc.arg("--record").arg(path);
     }
@@ -478,6 +495,8 @@ fn summary_json(
         "plans_best_iterate": f("plans_best_iterate"),
         "plans_previous_shifted": f("plans_previous_shifted"),
         "budget_ms": p.get("budget_ms").cloned().unwrap_or(serde_json::Value::Null),
+        "clock": if args.lockstep { "lockstep" } else { "real_time" },
+        "lockstep": p.get("lockstep").cloned().unwrap_or(serde_json::Value::Null),
         "tracker": t,
         "planner": p,
     })

@@ -478,3 +478,36 @@ fn a_bad_track_profile_is_refused_with_its_row() {
         "no process started: {stderr}"
     );
 }
+
+/// A planner that refuses its options (a recording folder that does not exist) ends the
+/// run at once with its error, instead of leaving the tracker to wait out its 120 s
+/// first-plan timeout.
+#[test]
+fn a_planner_that_fails_at_start_ends_the_run_at_once() {
+    let _serial = serial();
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let started = std::time::Instant::now();
+    let out = Command::new(bin_dir().join("trajopt"))
+        .current_dir(&repo)
+        .args([
+            "closed-loop",
+            "--json",
+            "--record",
+            "/nonexistent-folder/lap.mcap",
+        ])
+        .output()
+        .expect("run trajopt closed-loop");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(out.stdout.is_empty(), "nothing on stdout");
+    assert!(
+        stderr.contains("--record /nonexistent-folder/lap.mcap"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("planner_proc failed"), "{stderr}");
+    assert!(
+        started.elapsed().as_secs_f64() < 60.0,
+        "took {:?}: {stderr}",
+        started.elapsed()
+    );
+}

@@ -214,12 +214,33 @@ impl Drop for ChildGuard {
 
 /// Waits for a child up to `limit`; kills it on timeout. Returns (exit ok, stdout).
 fn wait_child(guard: &mut ChildGuard, limit: Duration) -> Result<(bool, String), String> {
+    wait_child_beside(guard, None, limit)
+}
+
+/// [`wait_child`], and gives up at once when `partner` exits first with a failure (the
+/// planner refused its options or files: the tracker would otherwise wait out its
+/// first-plan timeout for a plan that never comes).
+fn wait_child_beside(
+    guard: &mut ChildGuard,
+    mut partner: Option<&mut ChildGuard>,
+    limit: Duration,
+) -> Result<(bool, String), String> {
     use std::io::Read;
     let Some(mut child) = guard.0.take() else {
         return Err("child already reaped".into());
     };
     let start = Instant::now();
     loop {
+        let partner_failed = partner
+            .as_mut()
+            .and_then(|p| p.0.as_mut())
+            .and_then(|c| c.try_wait().ok().flatten())
+            .is_some_and(|status| !status.success());
+        if partner_failed {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err("planner_proc failed (see its log above)".into());
+        }
         match child.try_wait() {
             Ok(Some(status)) => {
                 let mut out = String::new();
@@ -436,7 +457,7 @@ pub fn run(args: ClosedLoopArgs) -> Result<(), String> {
     // Simulated time runs at wall-clock speed; the first plan may take a while on a loaded machine.
     let limit = Duration::from_secs_f64(duration_s + 180.0);
     planner::progress::begin(0, "closed loop: driving");
-    let waited = wait_child(&mut tracker, limit);
+    let waited = wait_child_beside(&mut tracker, Some(&mut planner), limit);
     planner::progress::end();
     let (tracker_ok, tracker_out) = waited?;
     // Stop the planner by closing its stdin.

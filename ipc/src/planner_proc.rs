@@ -322,10 +322,10 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
             args.friction_scale
         )));
     }
-    if !planner::model::GRIP_SCALES.contains(&args.relaxed_friction_scale) {
+    if !planner::model::GRIP_SCALES.contains(&args.relaxed_grip()) {
         return Err(PlannerProcError::Setup(format!(
             "--relaxed-friction-scale {}: must be in [0.5, 1]",
-            args.relaxed_friction_scale
+            args.relaxed_grip()
         )));
     }
     Ok(())
@@ -342,7 +342,7 @@ impl PlannerLoop {
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         let mut relaxed_vehicle = sc.spec.vehicle;
         relaxed_vehicle.eps_sat = args.relaxed_saturation;
-        relaxed_vehicle.scale_grip(args.relaxed_friction_scale);
+        relaxed_vehicle.scale_grip(args.relaxed_grip());
         sc.spec.vehicle.scale_grip(args.friction_scale);
         sc.spec.saturation_at_end = args.saturation_at_end == "on";
         soft_lane::setup(&mut sc, args)?;

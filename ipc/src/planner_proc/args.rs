@@ -16,6 +16,14 @@ pub const MARGIN_FLOOR_M: f64 = 0.3;
 /// lets the plans ride closer to the edge (docs/closed-loop.md).
 pub const ARREST_LATERAL_ACCEL_MPS2: f64 = 8.0;
 
+impl PlannerArgs {
+    /// The grip scale of a relaxed plan: `--relaxed-friction-scale`, else the nominal
+    /// plans' `--friction-scale`.
+    pub fn relaxed_grip(&self) -> f64 {
+        self.relaxed_friction_scale.unwrap_or(self.friction_scale)
+    }
+}
+
 /// Command-line options of `planner_proc`.
 // clap prints these doc comments as the --help text, which would show the escapes of
 // the unit brackets verbatim: the brackets stay as they are, and rustdoc keeps them as text.
@@ -100,11 +108,12 @@ pub struct PlannerArgs {
     #[arg(long, default_value_t = 0.05)]
     pub relaxed_saturation: f64,
     /// Fraction of the vehicle file's friction and brake torques a relaxed plan uses (0.5
-    /// to 1, at least --friction-scale): a car that no plan at --friction-scale can
-    /// recover spends the grip the nominal plans leave over on its recovery
-    /// (docs/closed-loop.md).
-    #[arg(long, default_value_t = 1.0)]
-    pub relaxed_friction_scale: f64,
+    /// to 1, at least --friction-scale; default: --friction-scale, the nominal plans'
+    /// grip). Above it, a car that no plan at --friction-scale can recover is planned with
+    /// the grip the nominal plans leave over, which a plant with less grip than the file
+    /// says may not have (docs/closed-loop.md).
+    #[arg(long)]
+    pub relaxed_friction_scale: Option<f64>,
     /// Relaxed cycles in a row that sent their own plan before the nominal problem resumes
     /// (0: never relax).
     #[arg(long, default_value_t = 10)]
@@ -173,4 +182,34 @@ pub struct PlannerArgs {
     /// replays on its own.
     #[arg(long)]
     pub record: Option<PathBuf>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::PlannerArgs;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: PlannerArgs,
+    }
+
+    fn parse(extra: &[&str]) -> PlannerArgs {
+        let argv = std::iter::once("planner_proc").chain(extra.iter().copied());
+        Cli::try_parse_from(argv).expect("options parse").args
+    }
+
+    #[test]
+    fn relaxed_plans_keep_the_nominal_grip_unless_given_their_own() {
+        assert_eq!(parse(&[]).relaxed_grip(), 1.0);
+        assert_eq!(parse(&["--friction-scale", "0.9"]).relaxed_grip(), 0.9);
+        let own = parse(&[
+            "--friction-scale",
+            "0.9",
+            "--relaxed-friction-scale",
+            "0.95",
+        ]);
+        assert_eq!(own.relaxed_grip(), 0.95);
+    }
 }

@@ -15,13 +15,14 @@
 //!   past its peak, as the car already does;
 //! - the lane margin shrinks from `--lane-margin-m` to `--relaxed-margin-m`, so the plan
 //!   may use the room the margin keeps for tracking errors;
-//! - the grip rises from `--friction-scale` to `--relaxed-friction-scale` (by default the
-//!   vehicle file's full friction and brake torques): the grip a nominal plan leaves over
-//!   is the tracker's authority to correct errors, and a car the errors have already put
-//!   where no plan at the reduced grip exists needs that authority spent on its recovery.
-//!   A minimum-time plan rides its grip and its lane bound together, so a small error in
-//!   heading or speed there leaves the reduced-grip problem without a feasible point
-//!   (Austin at s = 2200 m, 39 m/s through a fast chicane, docs/closed-loop.md).
+//! - the grip may rise from `--friction-scale` to `--relaxed-friction-scale` (by default
+//!   it stays at `--friction-scale`). The grip a nominal plan leaves over is the
+//!   tracker's authority to correct errors, and it is also the margin for a road that
+//!   grips less than the vehicle file says: a relaxed plan at the file's full grip asks
+//!   the default mismatch's plant (5 % less friction) for grip it does not have, and on
+//!   40 lockstep laps such plans sent the car off Budapest's hairpin at s = 1.14 km in
+//!   5 of 8 and Silverstone's track in 4 of 8, none at the nominal grip
+//!   (docs/performance.md, "Relaxed plans at the plans' grip").
 //!
 //! Re-solving offline the 14 plans of a Montreal recording that failed into the hairpin,
 //! the relaxed problem solves 8 and the nominal one 1 (docs/performance.md). Dropping the saturation rows

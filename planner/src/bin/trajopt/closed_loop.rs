@@ -143,9 +143,10 @@ pub struct ClosedLoopArgs {
     #[arg(long, default_value_t = 0.05)]
     relaxed_saturation: f64,
     /// Fraction of the vehicle file's friction and brake torques a relaxed plan uses
-    /// (`planner_proc --relaxed-friction-scale`; 0.5 to 1, at least `--friction-scale`).
-    #[arg(long, default_value_t = 1.0)]
-    relaxed_friction_scale: f64,
+    /// (`planner_proc --relaxed-friction-scale`; 0.5 to 1, at least `--friction-scale`;
+    /// default: `--friction-scale`).
+    #[arg(long)]
+    relaxed_friction_scale: Option<f64>,
     /// Relaxed cycles in a row with their own plan before the nominal problem resumes
     /// (`planner_proc --relaxed-cycles`; 0: never relax).
     #[arg(long, default_value_t = 10)]
@@ -373,9 +374,10 @@ fn spawn_pair(
         .arg("--relaxed-cycles")
         .arg(args.relaxed_cycles.to_string())
         .arg("--relaxed-saturation")
-        .arg(args.relaxed_saturation.to_string())
-        .arg("--relaxed-friction-scale")
-        .arg(args.relaxed_friction_scale.to_string());
+        .arg(args.relaxed_saturation.to_string());
+    if let Some(f) = args.relaxed_friction_scale {
+        pc.arg("--relaxed-friction-scale").arg(f.to_string());
+    }
     let planner = ChildGuard(Some(
         pc.spawn()
             .map_err(|e| format!("{}: {e}", planner_exe.display()))?,

@@ -126,7 +126,7 @@ pub struct ClosedLoopArgs {
     #[arg(long, allow_hyphen_values = true)]
     margin_floor_m: Option<f64>,
     /// Soft lane margin from each edge of a closed road [m] (`planner_proc
-    /// --soft-lane-m`; default 1.3 on a track, else 0: none): a penalty in the objective,
+    /// --soft-lane-m`; default 1.9 on a track, else 0: none): a penalty in the objective,
     /// not a bound.
     #[arg(long)]
     soft_lane_m: Option<f64>,
@@ -160,7 +160,7 @@ pub struct ClosedLoopArgs {
 }
 
 /// Soft lane margin of the plans on a track when not given \[m\] (docs/closed-loop.md).
-const TRACK_SOFT_LANE_M: f64 = 1.3;
+const TRACK_SOFT_LANE_M: f64 = 1.9;
 
 impl ClosedLoopArgs {
     /// The soft lane margin of the plans \[m\]: as given, else [`TRACK_SOFT_LANE_M`] on a

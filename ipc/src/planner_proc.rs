@@ -229,9 +229,9 @@ struct PlannerLoop {
     policy: publish_policy::Policy,
     /// Solve budgets \[ms\]: steady, and until the first plan is sent.
     budget_ms: f64,
+    first_budget_ms: f64,
     /// Lockstep's iteration caps (`None`: real time, wall-clock budgets).
     lockstep: Option<lockstep::Caps>,
-    first_budget_ms: f64,
     /// Cycles that solved (the recording's seq).
     cycles: u64,
     /// Cycle time of the first plan sent (start-up budget) \[ms\].
@@ -368,15 +368,18 @@ impl PlannerLoop {
         let envelope = end_speed::setup(&sc, args);
         let lockstep =
             lockstep::Caps::from_args(args, (budget_ms, first_budget_ms), settings.max_iter)?;
-        if let Some(caps) = &lockstep {
-            settings = caps.apply(settings, false);
-        }
-        let recorded_settings = settings;
-        settings.max_time_s = first_budget_ms * 1e-3;
-        if let Some(caps) = &lockstep {
-            settings = caps.apply(settings, true);
-        }
-        let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), settings)
+        // The steady settings are recorded; the first solves run under the start-up caps.
+        let (recorded_settings, startup_settings) = match &lockstep {
+            Some(caps) => (caps.apply(settings, false), caps.apply(settings, true)),
+            None => {
+                let startup = planner::ip::Settings {
+                    max_time_s: first_budget_ms * 1e-3,
+                    ..settings
+                };
+                (settings, startup)
+            }
+        };
+        let planner = Planner::<HORIZON_N>::new(sc.spec.clone(), startup_settings)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         let dims = (
             planner.solver().workspace().n,

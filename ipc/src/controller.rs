@@ -8,7 +8,11 @@
 //! at the same place on the road), K(V) the LQR gain of [`crate::lqr`] at the measured speed,
 //! and u_ref the plan's control a preview time t_p ahead: a command takes the actuator
 //! latency (transport delay plus steering lag) to reach the tires, by when the car has
-//! driven V t_p further. The heading error is wrapped into (-pi, pi]. The feedback acts on
+//! driven V t_p further. The heading error is wrapped into (-pi, pi], and the lateral error
+//! enters as the distance across the planned path, (e - e_ref) cos(dpsi_ref + beta_ref):
+//! the gain is designed around straight-line cruise, where the two agree, while a plan that
+//! crosses the road at a hairpin's apex at 0.8 rad would otherwise feed back 1.4 times its
+//! distance from the car. The feedback acts on
 //! steering, rear torque and front brake (the plant clamps the brake to braking). The gain
 //! is designed on the error augmented by the steering actuator's error delta_est - delta_ref(s), where
 //! delta_est is the actuator's steering as the tracker's model of its own actuator gives it
@@ -20,6 +24,12 @@ use planner::model::{iu, ix, VehicleParams, NU, NX};
 use crate::lqr::{GainSchedule, Weights, NA, NV, NZ, V_INPUTS, Z_STATES};
 use crate::msg::Trajectory;
 use crate::tracker::{reference, Reference};
+
+/// Position of the lateral error e in the error vector.
+const Z_E: usize = 4;
+/// Position of the heading error dpsi in the error vector.
+const Z_DPSI: usize = 5;
+const _: () = assert!(Z_STATES[Z_E] == ix::E && Z_STATES[Z_DPSI] == ix::DPSI);
 
 /// Wraps an angle into (-pi, pi].
 fn wrap(a: f64) -> f64 {
@@ -130,11 +140,10 @@ impl Controller {
             z[j] = y[i] - x_ref[i];
         }
         z[NZ] = self.delta_est - delta_ref;
-        let dpsi = Z_STATES
-            .iter()
-            .position(|&i| i == ix::DPSI)
-            .unwrap_or(NZ - 1);
-        z[dpsi] = wrap(z[dpsi]);
+        z[Z_DPSI] = wrap(z[Z_DPSI]);
+        // The lateral error across the planned path, not along the road normal: the gain
+        // is designed around straight-line cruise, where the two agree.
+        z[Z_E] *= (x_ref[ix::DPSI] + x_ref[ix::BETA]).cos();
         let k = self.sched.gain(y[ix::V]);
         let mut u = ff;
         for m in 0..NV {
@@ -191,6 +200,36 @@ mod tests {
     /// Control period of the tests \[s\] and plant steps per period.
     const CONTROL_DT: f64 = 0.001;
     const SUBSTEPS: usize = 4;
+
+    /// The lateral feedback acts on the distance across the planned path: 0.4 m off along
+    /// the road normal from a plan crossing the road at 0.8 rad (heading 0.6 rad plus
+    /// sideslip 0.2 rad) steers as 0.4 cos(0.8) m off a plan along the road does.
+    #[test]
+    fn the_lateral_feedback_acts_on_the_distance_across_an_inclined_plan() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let p = planner::config::load_vehicle(&root.join("config/vehicles/lc500.toml")).unwrap();
+        let (_, ctl) = mismatched_car_and_controller(&p, 20.0);
+        let along = straight_plan(20.0).x[0];
+        let mut inclined = along;
+        inclined[ix::DPSI] = 0.6;
+        inclined[ix::BETA] = 0.2;
+        let (offset, ff) = (0.4, [0.0; NU]);
+        let mut y = inclined;
+        y[ix::E] += offset;
+        let u_inclined = ctl.feedback(&y, &inclined, 0.0, ff);
+        let mut y = along;
+        y[ix::E] += offset * 0.8f64.cos();
+        let u_along = ctl.feedback(&y, &along, 0.0, ff);
+        assert!(u_along[iu::DELTA].abs() > 1e-3, "{u_along:?}");
+        for m in 0..NU {
+            assert!(
+                (u_inclined[m] - u_along[m]).abs() <= 1e-12 * u_along[m].abs().max(1.0),
+                "control {m}: {} against {}",
+                u_inclined[m],
+                u_along[m]
+            );
+        }
+    }
 
     /// From 0.5 m off a straight plan, with the default mismatch (the controller designed
     /// on the nominal model, fed the noisy state), the car is back within 0.1 m of the plan

@@ -47,6 +47,8 @@ pub struct OvalOptions {
     pub saturation_at_end: bool,
     /// How a warm start's first barrier parameter is matched to the shifted point.
     pub mu_match: planner::ip::MuMatch,
+    /// Guess of a cold plan: the first, and every plan without warm start.
+    pub cold_guess: GuessKind,
 }
 
 /// Why the drive could not be recorded.
@@ -221,10 +223,10 @@ pub fn record_oval(
     }
     let settings = load_solver(&opts.solver)?;
     let track = read_track(&opts.scenario)?;
-    let guess = GuessKind::Equilibrium;
+    let guess = opts.cold_guess;
 
     let mut lap = Planner::<N>::new(base.clone(), settings)?;
-    let info = lap.solve(guess);
+    let info = lap.solve(GuessKind::Equilibrium);
     if !info.status.is_success() {
         return Err(OvalError::Lap(info.status.name()));
     }

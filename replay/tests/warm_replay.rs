@@ -253,6 +253,7 @@ fn the_warm_started_oval_drive_records_every_warm_start_and_replays_bit_identica
         warm_start: true,
         saturation_at_end: true,
         mu_match: planner::ip::MuMatch::DEFAULT,
+        cold_guess: planner::guess::GuessKind::Equilibrium,
     };
     let summary = replay::oval::record_oval(&opts, |_, _, _| {}).unwrap();
     assert!(

@@ -116,6 +116,10 @@ enum Command {
         /// Multiple of the geometric mean for `--warm-mu geometric` (finite, > 0).
         #[arg(long, default_value_t = 30.0)]
         warm_mu_factor: f64,
+        /// Guess of a cold plan (the first, and every plan with `--warm-start off`):
+        /// equilibrium or road_speed (as `planner_proc --cold-guess`).
+        #[arg(long, default_value = "equilibrium", value_parser = ["equilibrium", "road_speed"])]
+        cold_guess: String,
         /// Output file.
         #[arg(long, default_value = "out/oval_drive.mcap")]
         out: PathBuf,
@@ -269,6 +273,7 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
             saturation_at_end,
             warm_mu,
             warm_mu_factor,
+            cold_guess,
             out,
             scenario,
             vehicle,
@@ -290,6 +295,8 @@ fn dispatch(command: Command) -> Result<ExitCode, String> {
                 mu_match: planner::ip::MuMatch::parse(&warm_mu, warm_mu_factor).ok_or_else(
                     || format!("--warm-mu-factor {warm_mu_factor}: must be finite and > 0"),
                 )?,
+                cold_guess: planner::guess::GuessKind::parse(&cold_guess)
+                    .ok_or_else(|| format!("--cold-guess {cold_guess}: unknown"))?,
             };
             let summary = record_oval(&opts, |i, ms, status| {
                 errln!("plan {i:3}: {status} in {ms:.1} ms");

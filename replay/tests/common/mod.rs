@@ -32,6 +32,7 @@ pub fn record(out: &Path, plans: usize) {
         warm_start: false,
         saturation_at_end: true,
         mu_match: planner::ip::MuMatch::DEFAULT,
+        cold_guess: planner::guess::GuessKind::Equilibrium,
     };
     let s = record_oval(&opts, |_, _, _| {}).unwrap();
     assert_eq!(s.stats.inputs, plans as u64);

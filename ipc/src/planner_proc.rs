@@ -22,7 +22,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use plan_record::now_ns;
 use planner::guess::GuessKind;
 use planner::ip::{MuMatch, SolveInfo};
-use planner::model::{ix, NU, NX};
+use planner::model::{ix, VehicleParams, NU, NX};
 use planner::plan::{shift_plan, Planner, ReplanGuess, WarmOptions};
 
 use crate::clock::{monotonic_ns, thread_cpu_ns};
@@ -333,11 +333,10 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
 
 impl PlannerLoop {
     /// Checks the options, loads the files and allocates the planner and the recorder.
-    fn setup(args: &PlannerArgs) -> Result<Self, PlannerProcError> {
-        check_args(args)?;
-        let (budget_ms, first_budget_ms) = budget::budgets_ms(args)?;
-        let cold_guess = GuessKind::parse(&args.cold_guess).unwrap_or(GuessKind::Equilibrium);
-        crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
+    /// Loads the scenario with the planner's own limits (its grip, the saturation rows at
+    /// the last node, the soft lane, the road frame's smallest path scale) and checks the
+    /// lane margin against the road; also returns the vehicle of a relaxed plan.
+    fn scenario(args: &PlannerArgs) -> Result<(Scenario, VehicleParams), PlannerProcError> {
         let mut sc = Scenario::load_with(&args.scenario, &args.road, &args.vehicle, &args.solver)
             .map_err(|e| PlannerProcError::Setup(e.to_string()))?;
         let mut relaxed_vehicle = sc.spec.vehicle;
@@ -353,6 +352,15 @@ impl PlannerLoop {
                 args.road.road_file(&args.scenario).display()
             ))
         })?;
+        Ok((sc, relaxed_vehicle))
+    }
+
+    fn setup(args: &PlannerArgs) -> Result<Self, PlannerProcError> {
+        check_args(args)?;
+        let (budget_ms, first_budget_ms) = budget::budgets_ms(args)?;
+        let cold_guess = GuessKind::parse(&args.cold_guess).unwrap_or(GuessKind::Equilibrium);
+        crate::services::check_prefix(&args.service_prefix).map_err(PlannerProcError::Setup)?;
+        let (sc, relaxed_vehicle) = Self::scenario(args)?;
         // Among obstacles the car is already moving at the scenario's start: the first
         // cycle answers within the steady budget like every other (a plan, or the notice
         // that there is none), instead of the start-up budget of a car waiting to start.
@@ -385,20 +393,7 @@ impl PlannerLoop {
             planner.solver().workspace().n,
             planner.solver().workspace().m,
         );
-        // Relaxed plans on closed roads only: an obstacle scenario's constraints are what
-        // its run tests.
-        let relaxed = (args.relaxed_cycles > 0 && sc.road.is_closed()).then(|| {
-            relaxed::Relaxed::new(
-                (sc.spec.vehicle.limits(), relaxed_vehicle.limits()),
-                args.relaxed_margin_m.min(args.lane_margin_m),
-                args.relaxed_cycles,
-            )
-        });
-        let relaxed_spec = relaxed.as_ref().map(|r| {
-            let mut spec = sc.spec.clone();
-            spec.vehicle = spec.vehicle.with_limits(r.limits[1]);
-            spec
-        });
+        let (relaxed, relaxed_spec) = relaxed::setup(args, &sc, &relaxed_vehicle);
         let recorder = match &args.record {
             Some(path) => Some(
                 CycleRecorder::create(

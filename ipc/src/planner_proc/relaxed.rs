@@ -34,9 +34,12 @@
 //! relaxed solve warm-starts from the last good plan like a nominal one. Obstacle
 //! scenarios never relax (their constraints are what the run tests).
 
-use planner::model::Limits;
+use planner::model::{Limits, VehicleParams};
+use planner::ocp::OcpSpec;
 
+use super::PlannerArgs;
 use crate::elog;
+use crate::road::Scenario;
 
 /// The relaxed problem's bounds and when the planner process solves it.
 #[derive(Debug, Clone, PartialEq)]
@@ -109,6 +112,28 @@ impl Relaxed {
             (true, false) => self.left = self.hold,
         }
     }
+}
+
+/// The relaxed-plan state and the problem a relaxed plan solves. Relaxed plans run on
+/// closed roads only: an obstacle scenario's constraints are what its run tests.
+pub(super) fn setup(
+    args: &PlannerArgs,
+    sc: &Scenario,
+    relaxed_vehicle: &VehicleParams,
+) -> (Option<Relaxed>, Option<OcpSpec>) {
+    let relaxed = (args.relaxed_cycles > 0 && sc.road.is_closed()).then(|| {
+        Relaxed::new(
+            (sc.spec.vehicle.limits(), relaxed_vehicle.limits()),
+            args.relaxed_margin_m.min(args.lane_margin_m),
+            args.relaxed_cycles,
+        )
+    });
+    let relaxed_spec = relaxed.as_ref().map(|r| {
+        let mut spec = sc.spec.clone();
+        spec.vehicle = spec.vehicle.with_limits(r.limits[1]);
+        spec
+    });
+    (relaxed, relaxed_spec)
 }
 
 #[cfg(test)]

@@ -327,6 +327,23 @@ fn spawn_pair(
     };
     let mut pc = Command::new(planner_exe);
     files(&mut pc);
+    planner_options(args, &mut pc);
+    let planner = ChildGuard(Some(
+        pc.spawn()
+            .map_err(|e| format!("{}: {e}", planner_exe.display()))?,
+    ));
+    let mut tc = Command::new(tracker_exe);
+    files(&mut tc);
+    tracker_options(args, (duration_s, trace_dir), &mut tc);
+    let tracker = ChildGuard(Some(
+        tc.spawn()
+            .map_err(|e| format!("{}: {e}", tracker_exe.display()))?,
+    ));
+    Ok((planner, tracker))
+}
+
+/// The planner's own options (`planner_proc`): its budget, lane, warm start and grip.
+fn planner_options(args: &ClosedLoopArgs, pc: &mut Command) {
     if let Some(path) = &args.record {
         pc.arg("--record").arg(path);
     }
@@ -378,12 +395,11 @@ fn spawn_pair(
     if let Some(f) = args.relaxed_friction_scale {
         pc.arg("--relaxed-friction-scale").arg(f.to_string());
     }
-    let planner = ChildGuard(Some(
-        pc.spawn()
-            .map_err(|e| format!("{}: {e}", planner_exe.display()))?,
-    ));
-    let mut tc = Command::new(tracker_exe);
-    files(&mut tc);
+}
+
+/// The tracker's own options (`tracker_proc`): the run's length, its start and the
+/// plant, which the planner never sees.
+fn tracker_options(args: &ClosedLoopArgs, (duration_s, trace_dir): (f64, &Path), tc: &mut Command) {
     tc.arg("--duration-s")
         .arg(duration_s.to_string())
         .arg("--distance-m")
@@ -418,11 +434,6 @@ fn spawn_pair(
     if let Some(path) = &args.plant_vehicle {
         tc.arg("--plant-vehicle").arg(resolve(path));
     }
-    let tracker = ChildGuard(Some(
-        tc.spawn()
-            .map_err(|e| format!("{}: {e}", tracker_exe.display()))?,
-    ));
-    Ok((planner, tracker))
 }
 
 /// `none` and `default` as they are; a file path resolved like the other input files.

@@ -332,7 +332,6 @@ fn check_args(args: &PlannerArgs) -> Result<(), PlannerProcError> {
 }
 
 impl PlannerLoop {
-    /// Checks the options, loads the files and allocates the planner and the recorder.
     /// Loads the scenario with the planner's own limits (its grip, the saturation rows at
     /// the last node, the soft lane, the road frame's smallest path scale) and checks the
     /// lane margin against the road; also returns the vehicle of a relaxed plan.
@@ -355,6 +354,7 @@ impl PlannerLoop {
         Ok((sc, relaxed_vehicle))
     }
 
+    /// Checks the options, loads the files and allocates the planner and the recorder.
     fn setup(args: &PlannerArgs) -> Result<Self, PlannerProcError> {
         check_args(args)?;
         let (budget_ms, first_budget_ms) = budget::budgets_ms(args)?;
